@@ -1,0 +1,179 @@
+"""The ``irt`` command: run, check, fmt, repl, analyze.
+
+Exit codes: 0 success; 2 the input has errors (diagnostics printed) or bad usage; 3 the script needs a
+capability this build does not have; 1 a run-time failure; 70 an internal error (a bug: please report);
+130 interrupted.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import traceback
+from pathlib import Path
+
+from ._version import __version__
+
+EXIT_OK, EXIT_RUNTIME, EXIT_INPUT, EXIT_MISSING, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 70, 130
+BUG_URL = "https://github.com/irtlang/irtlang/issues"
+
+
+def _setup_numba_cache() -> None:
+    if "NUMBA_CACHE_DIR" not in os.environ:
+        base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+        os.environ["NUMBA_CACHE_DIR"] = os.path.join(base, "irtlang", "numba")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="irt", description="irtlang: end-to-end optical simulation of space instruments")
+    p.add_argument("--version", action="version", version=f"irt (irtlang) {__version__}")
+    p.add_argument("--debug", action="store_true", help="show Python tracebacks")
+    sub = p.add_subparsers(dest="cmd", metavar="COMMAND")
+
+    r = sub.add_parser("run", help="run a script")
+    r.add_argument("file")
+    r.add_argument("--out", help="output folder (default irt-out/<script name>/)")
+    r.add_argument("--debug", action="store_true", default=argparse.SUPPRESS)
+
+    c = sub.add_parser("check", help="parse and validate scripts only")
+    c.add_argument("files", nargs="+")
+    c.add_argument("--debug", action="store_true", default=argparse.SUPPRESS)
+
+    f = sub.add_parser("fmt", help="print a script in canonical formatting")
+    f.add_argument("file")
+    f.add_argument("--debug", action="store_true", default=argparse.SUPPRESS)
+
+    sub.add_parser("repl", help="interactive session")
+
+    try:
+        from analysis import cli as acli  # the analysis package is optional at parse time
+    except ImportError:  # pragma: no cover - analysis ships with irtlang
+        acli = None
+    if acli is not None and hasattr(acli, "build_parser"):
+        a = sub.add_parser("analyze", help="analyses of saved images, spectra and ray files")
+        acli.build_parser(a.add_subparsers(dest="analysis_cmd", metavar="ANALYSIS"))
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    _setup_numba_cache()
+    args = build_parser().parse_args(argv)
+    debug = getattr(args, "debug", False)
+    try:
+        if args.cmd == "run":
+            return cmd_run(args)
+        if args.cmd == "check":
+            return cmd_check(args)
+        if args.cmd == "fmt":
+            return cmd_fmt(args)
+        if args.cmd == "repl":
+            from .repl import main as repl_main
+
+            return repl_main()
+        if args.cmd == "analyze":
+            from analysis import cli as acli
+
+            return acli.run(args)
+        build_parser().print_help()
+        return EXIT_INPUT
+    except KeyboardInterrupt:
+        print("irt: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception:  # the last line of defence: never a bare traceback unless --debug
+        if debug:
+            traceback.print_exc()
+        else:
+            etype, evalue, _ = sys.exc_info()
+            print(f"irt: internal error: {etype.__name__}: {evalue}\n"
+                  f"This is a bug in irtlang {__version__}. Please report it at {BUG_URL} with your script "
+                  f"and the output of `irt --debug {' '.join(argv or sys.argv[1:])}`.", file=sys.stderr)
+        return EXIT_INTERNAL
+
+
+def _print_diags(e) -> None:
+    print(e.render(), file=sys.stderr)
+    n = len(e.diagnostics)
+    print(f"{n} error{'s' if n != 1 else ''}", file=sys.stderr)
+
+
+def _load_check(path: str):
+    """Check a script; returns the interpreter, or raises IrtError with every diagnostic."""
+    from .lang.diagnostics import Diagnostic, IrtError, NO_SPAN
+    from .lang.interp import check_file
+
+    p = Path(path)
+    if not p.exists():
+        raise IrtError(Diagnostic(NO_SPAN, f"no such file: {path}"))
+    if p.is_dir():
+        raise IrtError(Diagnostic(NO_SPAN, f"{path} is a folder, not a script"))
+    return check_file(p)
+
+
+def cmd_check(args) -> int:
+    from .lang.diagnostics import IrtError
+
+    status = EXIT_OK
+    for f in args.files:
+        try:
+            _load_check(f)
+            print(f"{f}: ok")
+        except IrtError as e:
+            _print_diags(e)
+            status = EXIT_INPUT
+    return status
+
+
+def cmd_run(args) -> int:
+    from .engine import Engine, MissingCapability, RuntimeFailure
+    from .io.manifest import RunFolder
+    from .lang.diagnostics import Diagnostic, IrtError
+    from .lang.interp import Interpreter
+
+    try:
+        checked = _load_check(args.file)
+    except IrtError as e:
+        _print_diags(e)
+        return EXIT_INPUT
+    script = Path(args.file)
+    out = Path(args.out) if args.out else Path("irt-out") / script.stem
+    folder = RunFolder(out, str(script), checked.script_hash, checked.state.seed)
+    it = Interpreter(engine=Engine(folder))
+    status = "complete"
+    code = EXIT_OK
+    try:
+        it.run_file(script)
+        if it.diags:  # run-time diagnostics (a value only known while running)
+            raise IrtError(it.diags.items)
+    except MissingCapability as e:
+        print(Diagnostic(e.span, f"{e.what} needs {e.capability}, which this version of irtlang "
+                                 f"(v{__version__}) does not have yet; the run stops here").render(), file=sys.stderr)
+        status, code = f"stopped: {e.what} needs {e.capability}", EXIT_MISSING
+    except RuntimeFailure as e:
+        print(Diagnostic(e.span, e.message).render(), file=sys.stderr)
+        status, code = f"failed: {e.message}", EXIT_RUNTIME
+    except IrtError as e:
+        _print_diags(e)
+        status, code = "failed: input errors", EXIT_INPUT
+    except KeyboardInterrupt:
+        status, code = "interrupted", EXIT_INTERRUPTED
+        print("irt: interrupted; keeping what was written", file=sys.stderr)
+    man = folder.write_manifest(status)
+    print(f"irt: outputs in {folder.root}/ ({len(folder.files)} file{'s' if len(folder.files) != 1 else ''}; "
+          f"manifest {man})")
+    return code
+
+
+def cmd_fmt(args) -> int:
+    from .lang.diagnostics import IrtError
+    from .lang.fmt import format_file
+
+    try:
+        sys.stdout.write(format_file(args.file))
+    except IrtError as e:
+        _print_diags(e)
+        return EXIT_INPUT
+    return EXIT_OK
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,529 @@
+"""Ray-surface intersection in a surface's LOCAL frame, aperture tests and frame transforms.
+
+Conventions
+-----------
+* Local frame: the surface axis is +z; the vertex (conic, plane) or the centre (sphere, ellipsoid) is at
+  the origin. ``world = R @ local + T`` (R a 3x3 rotation, T the local origin in world coordinates).
+  ``to_local`` subtracts T *before* rotating, so a ray far from the world origin (the Earth at 2.7e10 m)
+  keeps the precision of its offset from the surface (DESIGN.md, "Precision across scales").
+* A ray is ``p(t) = o + t d``. ``d`` need not be unit length: every ``t`` returned is the parameter
+  along ``d`` as given (a distance when ``|d| = 1``). ``d = 0`` never hits.
+* Every ``hit_*`` returns the two candidate parameters ``(t1, t2)``, sorted ascending, including roots
+  with ``t <= 0``; an absent root is ``np.inf``; NaN never comes out (for finite inputs). The caller takes
+  the first ``t > tmin`` whose local point passes the aperture test. A tangent ray gives a double root
+  (t1 == t2), which the caller may count as a grazing hit.
+* Normals: ``conic_normal`` points towards +z at the vertex (for c > 0: towards the centre of curvature);
+  ``sphere_normal``, ``ellipsoid_normal`` and ``tube_normal`` point outwards (away from the axis / centre).
+  All normals are unit vectors.
+
+Conic (sag) surface
+-------------------
+``z(r) = c r^2 / (1 + sqrt(1 - (1 + k) c^2 r^2)) + sum_i asph[i] r^(2 i + 4)``, ``asph = [a4, a6, ...]``.
+Its conic part is the quadric ``F(p) = c (x^2 + y^2) + (1 + k) c z^2 - 2 z = 0`` through the vertex:
+c = 0 is the plane z = 0; k = -1 a paraboloid; k < -1 a hyperboloid; -1 < k < 0 a prolate and k > 0 an
+oblate ellipsoid; k = 0 a sphere. Solving F for z, ``z = (1 -/+ sqrt(1 - (1 + k) c^2 r^2)) / ((1 + k) c)``;
+the sag formula is the '-' branch, so a point of the quadric is on the *vertex sheet* iff
+``s = 1 - (1 + k) c z >= 0`` (s is then the square root above). For a hyperboloid the other sheet has
+``s <= -1``; for an ellipsoid, s < 0 is the half beyond the equator, which the sag formula does not describe.
+Roots with ``s < -1e-9`` are discarded.
+
+Along the ray F becomes ``A t^2 + 2 B t + C = 0`` with
+``A = c (dx^2 + dy^2) + (1 + k) c dz^2``, ``B = c (ox dx + oy dy) + (1 + k) c oz dz - dz``,
+``C = c (ox^2 + oy^2) + (1 + k) c oz^2 - 2 oz``.
+Quadratics are solved with ``q = -(B + sign(B) sqrt(B^2 - A C))``, ``t = q / A`` and ``t = C / q`` (the
+"citardauq" pair: no cancellation; A = 0 degrades to the linear root C / q = -C / (2 B)), and the
+discriminant ``B^2 - A C`` is evaluated à la Kahan: when it cancels badly it is recomputed from exact
+products (Dekker's TwoProduct with Veltkamp splitting), so grazing and tangent rays keep a correct
+discriminant. An origin exactly on the surface has C = 0 and gets the root t = 0 exactly, while the other
+root keeps full relative accuracy.
+
+With aspheric terms, each vertex-sheet conic root (or, when the conic is missed, the plane root) seeds a
+Newton iteration on ``g(t) = z(t) - sag(r(t)^2)``; a root that leaves the conic's domain, meets a
+tangent direction or does not converge in ``NEWTON_MAX_IT`` steps is dropped (``np.inf``). Limitation: an
+aspheric crossing with no conic/plane root near it is not found.
+
+Sphere / ellipsoid / tube
+-------------------------
+``hit_sphere`` forms the discriminant geometrically, ``B^2 - A C = A (R - |l|)(R + |l|)`` with ``l`` the
+perpendicular from the centre to the ray line (Haines et al., Ray Tracing Gems ch. 7), and
+``C = (|o| - R)(|o| + R)``. ``hit_ellipsoid`` scales to the unit sphere (``o/(a,b,c)``, ``d/(a,b,c)``); the
+ray parameter is unchanged by this scaling, so t is in the caller's metric. ``hit_tube`` is the side wall of a
+frustum whose radius goes linearly from r1 at z1 to r2 at z2 (a cylinder when r1 == r2); roots outside
+[min(z1, z2), max(z1, z2)] are discarded.
+
+Self-intersection policy
+------------------------
+A ray leaving a surface starts (to rounding) on it. The hit routines return both roots, including the
+~0 one, so the caller must reject ``t <= tmin``. Use ``self_hit_tmin(ox, oy, oz, dx, dy, dz, size)``:
+``tmin = EPS_SELF * max(size, |o|_inf) / |d|_inf`` with ``EPS_SELF = 1e-9`` and ``size`` the surface's
+characteristic size (e.g. its aperture radius), i.e. 1e-9 of the local length scale (0.15 nm on a 150 mm
+mirror, 6 mm on the Earth). Thanks to the citardauq roots, the *other* root of the surface just left keeps
+full accuracy (e.g. the far side of a sphere), so the same tmin works for re-hits of the same surface.
+This is why traces must be done in local frames: the positions' own rounding is ~1e-16 |o|.
+"""
+import math
+
+import numba
+import numpy as np
+
+__all__ = [
+    "EPS_SELF",
+    "NEWTON_MAX_IT",
+    "hit_plane",
+    "hit_conic",
+    "conic_sag",
+    "conic_sag_deriv",
+    "conic_normal",
+    "conic_domain_ok",
+    "conic_residual",
+    "hit_sphere",
+    "sphere_normal",
+    "hit_ellipsoid",
+    "ellipsoid_normal",
+    "hit_tube",
+    "tube_normal",
+    "in_rect",
+    "in_disk",
+    "in_annulus",
+    "in_ellipse",
+    "to_local",
+    "to_world",
+    "dir_to_local",
+    "dir_to_world",
+    "self_hit_tmin",
+    "solve_quadratic",
+    "normalize3",
+]
+
+INF = np.inf
+EPS_SELF = 1e-9
+NEWTON_MAX_IT = 40
+_SPLITTER = 134217729.0  # 2**27 + 1 (Veltkamp)
+_SPLIT_MAX = 1e145  # above this the split could overflow: skip compensation
+_SHEET_TOL = 1e-9
+
+
+# ----------------------------------------------------------------------------------------------------
+# small numerics
+# ----------------------------------------------------------------------------------------------------
+@numba.njit(cache=True, fastmath=False)
+def two_prod(a, b):
+    """Dekker's TwoProduct: p + e == a * b exactly (no over/underflow)."""
+    p = a * b
+    t = _SPLITTER * a
+    ah = t - (t - a)
+    al = a - ah
+    t = _SPLITTER * b
+    bh = t - (t - b)
+    bl = b - bh
+    e = ((ah * bh - p) + ah * bl + al * bh) + al * bl
+    return p, e
+
+
+@numba.njit(cache=True, fastmath=False)
+def disc(b, a, c):
+    """b*b - a*c with Kahan's test: recompute from exact products when it cancels."""
+    p = b * b
+    q = a * c
+    d = p - q
+    if 3.0 * abs(d) >= p + abs(q):
+        return d
+    if abs(b) > _SPLIT_MAX or abs(a) > _SPLIT_MAX or abs(c) > _SPLIT_MAX:
+        return d
+    p, dp = two_prod(b, b)
+    q, dq = two_prod(a, c)
+    return (p - q) + (dp - dq)
+
+
+@numba.njit(cache=True, fastmath=False)
+def norm3(x, y, z):
+    """Euclidean norm without overflow/underflow."""
+    m = max(abs(x), abs(y), abs(z))
+    if m == 0.0 or not math.isfinite(m):
+        return m
+    x /= m
+    y /= m
+    z /= m
+    return m * math.sqrt(x * x + y * y + z * z)
+
+
+@numba.njit(cache=True, fastmath=False)
+def normalize3(x, y, z):
+    """Unit vector along (x, y, z); the zero vector maps to (0, 0, 1)."""
+    m = max(abs(x), abs(y), abs(z))
+    if m == 0.0 or not math.isfinite(m):
+        return 0.0, 0.0, 1.0
+    x /= m
+    y /= m
+    z /= m
+    n = math.sqrt(x * x + y * y + z * z)
+    return x / n, y / n, z / n
+
+
+@numba.njit(cache=True, fastmath=False)
+def _finite_or_inf(t):
+    if math.isfinite(t):
+        return t
+    return INF
+
+
+@numba.njit(cache=True, fastmath=False)
+def _sort2(t1, t2):
+    if t2 < t1:
+        return t2, t1
+    return t1, t2
+
+
+@numba.njit(cache=True, fastmath=False)
+def solve_quadratic(a, b, c, d):
+    """Roots of a t^2 + 2 b t + c = 0 given the discriminant d = b^2 - a c; sorted, inf where absent."""
+    if not (d >= 0.0):  # also catches NaN
+        return INF, INF
+    sq = math.sqrt(d)
+    q = -(b + math.copysign(sq, b))
+    if q == 0.0:
+        # b == 0 and d == 0 -> a c == 0
+        if a != 0.0:
+            return 0.0, 0.0  # c == 0: double root at 0
+        return INF, INF  # a == b == 0: no isolated root
+    if a != 0.0:
+        t1 = _finite_or_inf(q / a)
+    else:
+        t1 = INF
+    t2 = _finite_or_inf(c / q)
+    return _sort2(t1, t2)
+
+
+# ----------------------------------------------------------------------------------------------------
+# plane
+# ----------------------------------------------------------------------------------------------------
+@numba.njit(cache=True, fastmath=False)
+def hit_plane(ox, oy, oz, dx, dy, dz):
+    """Plane z = 0: (t, inf). A ray parallel to (or inside) the plane gives (inf, inf)."""
+    if dz == 0.0:
+        return INF, INF
+    t = -oz / dz
+    return _finite_or_inf(t), INF
+
+
+# ----------------------------------------------------------------------------------------------------
+# conic + polynomial asphere
+# ----------------------------------------------------------------------------------------------------
+@numba.njit(cache=True, fastmath=False)
+def _asph_eval(s, asph):
+    """P(s) = sum asph[i] s^(i+2) and dP/ds, s = r^2 (Horner)."""
+    n = asph.shape[0]
+    if n == 0:
+        return 0.0, 0.0
+    p = 0.0
+    dp = 0.0
+    for i in range(n - 1, -1, -1):
+        dp = dp * s + p
+        p = p * s + asph[i]
+    # p = sum a_i s^i, dp = d/ds of that
+    return s * s * p, 2.0 * s * p + s * s * dp
+
+
+@numba.njit(cache=True, fastmath=False)
+def conic_domain_ok(r, c, k):
+    """True iff radius r lies inside the conic's real domain: (1 + k) c^2 r^2 <= 1."""
+    return (1.0 + k) * c * c * r * r <= 1.0
+
+
+@numba.njit(cache=True, fastmath=False)
+def conic_sag(r2, c, k, asph):
+    """Sag z at r^2 = r2 (conic + aspheric terms); np.inf outside the conic's domain."""
+    arg = 1.0 - (1.0 + k) * c * c * r2
+    if arg < 0.0:
+        return INF
+    z = c * r2 / (1.0 + math.sqrt(arg))
+    p, _ = _asph_eval(r2, asph)
+    return z + p
+
+
+@numba.njit(cache=True, fastmath=False)
+def conic_sag_deriv(r2, c, k, asph):
+    """d(sag)/d(r^2) = c / (2 sqrt(1 - (1+k) c^2 r^2)) + aspheric part; np.inf at/after the domain edge."""
+    arg = 1.0 - (1.0 + k) * c * c * r2
+    if arg <= 0.0:
+        return INF
+    _, dp = _asph_eval(r2, asph)
+    return c / (2.0 * math.sqrt(arg)) + dp
+
+
+@numba.njit(cache=True, fastmath=False)
+def conic_normal(x, y, c, k, asph):
+    """Unit normal of the sag surface above (x, y), pointing towards +z at the vertex.
+
+    The gradient of z - sag(r^2), times q = sqrt(1 - (1+k) c^2 r^2) >= 0, is
+    (-x (c + 2 q P'), -y (c + 2 q P'), q): finite even at an ellipsoid's equator (q = 0). Outside the
+    domain q is clamped to 0.
+    """
+    s = x * x + y * y
+    arg = 1.0 - (1.0 + k) * c * c * s
+    q = math.sqrt(arg) if arg > 0.0 else 0.0
+    _, dp = _asph_eval(s, asph)
+    m = c + 2.0 * q * dp
+    return normalize3(-x * m, -y * m, q)
+
+
+@numba.njit(cache=True, fastmath=False)
+def conic_residual(x, y, z, c, k, asph):
+    """Signed distance-like residual of (x, y, z) to the sag surface: (z - sag) * n_z (first order
+    geometric distance, finite near an ellipsoid's equator); np.inf outside the domain."""
+    s = x * x + y * y
+    arg = 1.0 - (1.0 + k) * c * c * s
+    if arg < 0.0:
+        return INF
+    q = math.sqrt(arg)
+    zc = c * s / (1.0 + q)
+    p, dp = _asph_eval(s, asph)
+    m = c + 2.0 * q * dp
+    nz = q / norm3(x * m, y * m, q) if (q != 0.0 or m != 0.0) else 1.0
+    if arg == 0.0:
+        # on the domain edge the surface is vertical: use the implicit conic residual instead
+        f = c * s + (1.0 + k) * c * z * z - 2.0 * z
+        g = 2.0 * norm3(c * x, c * y, (1.0 + k) * c * z - 1.0)
+        return f / g if g > 0.0 else INF
+    return (z - zc - p) * nz
+
+
+@numba.njit(cache=True, fastmath=False)
+def _conic_quadric_roots(ox, oy, oz, dx, dy, dz, c, k):
+    """Roots of the conic quadric on the vertex sheet, sorted, inf where absent."""
+    kk = 1.0 + k
+    a = c * (dx * dx + dy * dy) + kk * c * dz * dz
+    b = c * (ox * dx + oy * dy) + kk * c * oz * dz - dz
+    cc = c * (ox * ox + oy * oy) + kk * c * oz * oz - 2.0 * oz
+    d = disc(b, a, cc)
+    t1, t2 = solve_quadratic(a, b, cc, d)
+    # keep roots on the vertex sheet: s = 1 - (1+k) c z >= 0
+    if t1 != INF:
+        if 1.0 - kk * c * (oz + t1 * dz) < -_SHEET_TOL:
+            t1 = INF
+    if t2 != INF:
+        if 1.0 - kk * c * (oz + t2 * dz) < -_SHEET_TOL:
+            t2 = INF
+    return _sort2(t1, t2)
+
+
+@numba.njit(cache=True, fastmath=False)
+def _asph_newton(ox, oy, oz, dx, dy, dz, c, k, asph, t0):
+    """Newton on g(t) = z(t) - sag(r(t)^2), started at t0; inf if it fails."""
+    kk = 1.0 + k
+    t = t0
+    dn = max(abs(dx), abs(dy), abs(dz))
+    on = max(abs(ox), abs(oy), abs(oz))
+    dt = INF
+    scale = 0.0
+    for _ in range(NEWTON_MAX_IT):
+        x = ox + t * dx
+        y = oy + t * dy
+        z = oz + t * dz
+        s = x * x + y * y
+        arg = 1.0 - kk * c * c * s
+        if arg < 0.0:
+            return INF
+        q = math.sqrt(arg)
+        zc = c * s / (1.0 + q)
+        p, dp = _asph_eval(s, asph)
+        m = c + 2.0 * q * dp
+        # q * grad(z - sag) = (-x m, -y m, q)
+        gq = q * (z - zc - p)
+        den = -x * m * dx - y * m * dy + q * dz
+        if den == 0.0 or not math.isfinite(den):
+            return INF
+        dt = -gq / den
+        if not math.isfinite(dt):
+            return INF
+        t += dt
+        scale = (on + abs(t) * dn) / dn
+        if abs(dt) <= 1e-14 * scale:
+            return t
+    # accept a root whose last step was at rounding level only
+    if abs(dt) <= 1e-12 * scale:
+        return t
+    return INF
+
+
+@numba.njit(cache=True, fastmath=False)
+def hit_conic(ox, oy, oz, dx, dy, dz, c, k, asph):
+    """Conic (+ even asphere) with vertex at the origin, axis +z: (t1, t2) sorted, inf where absent."""
+    if dx == 0.0 and dy == 0.0 and dz == 0.0:
+        return INF, INF
+    t1, t2 = _conic_quadric_roots(ox, oy, oz, dx, dy, dz, c, k)
+    if asph.shape[0] == 0:
+        return t1, t2
+    if t1 == INF and t2 == INF:
+        t1, _ = hit_plane(ox, oy, oz, dx, dy, dz)
+        if t1 == INF:
+            return INF, INF
+    if t1 != INF:
+        t1 = _asph_newton(ox, oy, oz, dx, dy, dz, c, k, asph, t1)
+    if t2 != INF:
+        t2 = _asph_newton(ox, oy, oz, dx, dy, dz, c, k, asph, t2)
+    return _sort2(t1, t2)
+
+
+# ----------------------------------------------------------------------------------------------------
+# sphere, ellipsoid
+# ----------------------------------------------------------------------------------------------------
+@numba.njit(cache=True, fastmath=False)
+def hit_sphere(ox, oy, oz, dx, dy, dz, R):
+    """Sphere of radius R centred at the origin: (t1, t2) sorted, inf where absent."""
+    a = dx * dx + dy * dy + dz * dz
+    if a == 0.0 or not math.isfinite(a):
+        return INF, INF
+    b = ox * dx + oy * dy + oz * dz
+    f = b / a
+    ln = norm3(ox - f * dx, oy - f * dy, oz - f * dz)
+    dpa = (R - ln) * (R + ln)  # (b^2 - a c) / a
+    if not (dpa >= 0.0):
+        return INF, INF
+    on = norm3(ox, oy, oz)
+    c = (on - R) * (on + R)
+    sq = math.sqrt(a) * math.sqrt(dpa)
+    q = -(b + math.copysign(sq, b))
+    if q == 0.0:
+        # b == 0 and tangent through... only if c == 0 too (origin on sphere, tangent direction)
+        return 0.0, 0.0
+    t1 = _finite_or_inf(q / a)
+    t2 = _finite_or_inf(c / q)
+    return _sort2(t1, t2)
+
+
+@numba.njit(cache=True, fastmath=False)
+def sphere_normal(x, y, z):
+    """Outward unit normal of a sphere centred at the origin."""
+    return normalize3(x, y, z)
+
+
+@numba.njit(cache=True, fastmath=False)
+def hit_ellipsoid(ox, oy, oz, dx, dy, dz, a, b, c):
+    """Ellipsoid x^2/a^2 + y^2/b^2 + z^2/c^2 = 1: (t1, t2) in the caller's ray parameter."""
+    return hit_sphere(ox / a, oy / b, oz / c, dx / a, dy / b, dz / c, 1.0)
+
+
+@numba.njit(cache=True, fastmath=False)
+def ellipsoid_normal(x, y, z, a, b, c):
+    """Outward unit normal of the ellipsoid at (x, y, z): along (x/a^2, y/b^2, z/c^2)."""
+    return normalize3((x / a) / a, (y / b) / b, (z / c) / c)
+
+
+# ----------------------------------------------------------------------------------------------------
+# tube (cone frustum / cylinder side wall)
+# ----------------------------------------------------------------------------------------------------
+@numba.njit(cache=True, fastmath=False)
+def hit_tube(ox, oy, oz, dx, dy, dz, z1, r1, z2, r2):
+    """Side wall of the frustum r(z) = r1 + (r2 - r1)(z - z1)/(z2 - z1), z between z1 and z2."""
+    if z2 == z1:
+        return INF, INF
+    if z2 < z1:
+        z1, z2 = z2, z1
+        r1, r2 = r2, r1
+    sl = (r2 - r1) / (z2 - z1)
+    w = r1 + sl * (oz - z1)  # r(z) at the origin's height (may be negative off the frustum)
+    a = dx * dx + dy * dy - sl * sl * dz * dz
+    b = ox * dx + oy * dy - w * sl * dz
+    rho = math.hypot(ox, oy)
+    cc = (rho - w) * (rho + w)
+    d = disc(b, a, cc)
+    t1, t2 = solve_quadratic(a, b, cc, d)
+    if t1 != INF:
+        z = oz + t1 * dz
+        if z < z1 or z > z2:
+            t1 = INF
+    if t2 != INF:
+        z = oz + t2 * dz
+        if z < z1 or z > z2:
+            t2 = INF
+    return _sort2(t1, t2)
+
+
+@numba.njit(cache=True, fastmath=False)
+def tube_normal(x, y, z, z1, r1, z2, r2):
+    """Outward unit normal of the frustum side wall at (x, y, z) (away from the axis)."""
+    if z2 < z1:
+        z1, z2 = z2, z1
+        r1, r2 = r2, r1
+    sl = (r2 - r1) / (z2 - z1) if z2 != z1 else 0.0
+    rho = math.hypot(x, y)
+    if rho == 0.0:
+        # apex of a cone: no unique normal, take the axial direction away from the cone
+        return 0.0, 0.0, (-1.0 if sl > 0.0 else 1.0)
+    return normalize3(x / rho, y / rho, -sl)
+
+
+# ----------------------------------------------------------------------------------------------------
+# apertures (local x, y; boundaries inclusive)
+# ----------------------------------------------------------------------------------------------------
+@numba.njit(cache=True, fastmath=False)
+def in_rect(x, y, hx, hy):
+    """|x| <= hx and |y| <= hy."""
+    return abs(x) <= hx and abs(y) <= hy
+
+
+@numba.njit(cache=True, fastmath=False)
+def in_disk(x, y, r):
+    """x^2 + y^2 <= r^2."""
+    return math.hypot(x, y) <= r
+
+
+@numba.njit(cache=True, fastmath=False)
+def in_annulus(x, y, rin, rout):
+    """rin <= sqrt(x^2 + y^2) <= rout."""
+    rho = math.hypot(x, y)
+    return rin <= rho and rho <= rout
+
+
+@numba.njit(cache=True, fastmath=False)
+def in_ellipse(x, y, a, b):
+    """(x/a)^2 + (y/b)^2 <= 1."""
+    return math.hypot(x / a, y / b) <= 1.0
+
+
+# ----------------------------------------------------------------------------------------------------
+# frames
+# ----------------------------------------------------------------------------------------------------
+@numba.njit(cache=True, fastmath=False)
+def dir_to_local(vx, vy, vz, R):
+    """R^T v (a direction or normal; no translation)."""
+    return (R[0, 0] * vx + R[1, 0] * vy + R[2, 0] * vz,
+            R[0, 1] * vx + R[1, 1] * vy + R[2, 1] * vz,
+            R[0, 2] * vx + R[1, 2] * vy + R[2, 2] * vz)
+
+
+@numba.njit(cache=True, fastmath=False)
+def dir_to_world(vx, vy, vz, R):
+    """R v (a direction or normal; no translation)."""
+    return (R[0, 0] * vx + R[0, 1] * vy + R[0, 2] * vz,
+            R[1, 0] * vx + R[1, 1] * vy + R[1, 2] * vz,
+            R[2, 0] * vx + R[2, 1] * vy + R[2, 2] * vz)
+
+
+@numba.njit(cache=True, fastmath=False)
+def to_local(px, py, pz, dx, dy, dz, R, T):
+    """World point and direction -> local: (R^T (p - T), R^T d). T is subtracted first."""
+    x = px - T[0]
+    y = py - T[1]
+    z = pz - T[2]
+    lx, ly, lz = dir_to_local(x, y, z, R)
+    ldx, ldy, ldz = dir_to_local(dx, dy, dz, R)
+    return lx, ly, lz, ldx, ldy, ldz
+
+
+@numba.njit(cache=True, fastmath=False)
+def to_world(px, py, pz, dx, dy, dz, R, T):
+    """Local point and direction -> world: (R p + T, R d)."""
+    wx, wy, wz = dir_to_world(px, py, pz, R)
+    wdx, wdy, wdz = dir_to_world(dx, dy, dz, R)
+    return wx + T[0], wy + T[1], wz + T[2], wdx, wdy, wdz
+
+
+@numba.njit(cache=True, fastmath=False)
+def self_hit_tmin(ox, oy, oz, dx, dy, dz, size):
+    """tmin = EPS_SELF * max(size, |o|_inf) / |d|_inf (see module docstring)."""
+    dn = max(abs(dx), abs(dy), abs(dz))
+    if dn == 0.0:
+        return INF
+    return EPS_SELF * max(size, abs(ox), abs(oy), abs(oz)) / dn

@@ -1,0 +1,701 @@
+"""The command table: each command's signature (irtlang.lang.spec), handler and reference entry.
+
+``TABLE`` maps the command's keyword to a ``CommandDef``.  Kinds that have plugins (surfaces, scatter
+models, sources) take their signatures from the plugin registries, so a new kind needs no change here.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+from . import ast as A
+from .diagnostics import Span, did_you_mean, error
+from .expr import evaluate, format_value
+from .spec import (Axis, Choice, Clause, Form, Name, Param, Path, PL, Ref, Rest, V, Variants, Vs, match_keyword,
+                   nonneg, positive, unit_interval)
+from .units import ANGLE, INV_LENGTH, LENGTH, LENGTH_UNITS, NONE, POWER, Quantity
+from ..model import scene as M
+from ..plugins.bsdfs import REGISTRY as BSDFS
+from ..plugins.sources import REGISTRY as SOURCES, of_role
+from ..plugins.surfaces import REGISTRY as SURFACES
+
+
+@dataclass(frozen=True)
+class CommandDef:
+    head: str
+    form: Form | None
+    handler: Callable
+    section: str
+    summary: str
+
+
+TABLE: dict[str, CommandDef] = {}
+
+
+def command(head: str, form: Form | None, section: str, summary: str):
+    def deco(fn):
+        TABLE[head] = CommandDef(head, form, fn, section, summary)
+        return fn
+    return deco
+
+
+def usages(head: str) -> list[str]:
+    c = TABLE[head]
+    return c.form.usages(head) if c.form is not None else [head]
+
+
+# ==================================================================== 2. variables, control, files
+@command("CALL", Form((Name("macro"), Rest("args"))), "control", "run a MACRO with arguments")
+def _call(it, b, st):
+    it.call(b["macro"], b["args"], b.span, b.span_of("macro"))
+
+
+@command("INCLUDE", Form((Path("file"),)), "control", "run another script here (path relative to this file)")
+def _include(it, b, st):
+    it.include(b["file"], b.span_of("file"))
+
+
+@command("PRINT", Form((Rest("items"),)), "control", "print strings ({expr} interpolated) and values")
+def _print(it, b, st):
+    parts = []
+    for item in b["items"]:
+        v = evaluate(item, it.env)
+        parts.append(v if isinstance(v, str) else format_value(v, it.env) if v.dim in (None, NONE)
+                     else v.describe(it.state.units))
+    it.print(" ".join(parts))
+
+
+@command("MACRO", None, "control", "MACRO name [param ...] ... END MACRO: a named block with parameters")
+def _macro(it, b, st):  # MACRO blocks are built by the parser; reaching here means no END MACRO followed
+    raise error(st.span, "MACRO without END MACRO")
+
+
+@command("STOP", Form(), "control", "end the script here")
+def _stop(it, b, st):
+    from .interp import StopScript
+    raise StopScript()
+
+
+# ==================================================================== 3. system
+@command("SYSTEM", Form((Choice("what", ("NEW",)),)), "system", "SYSTEM NEW forgets every definition")
+def _system(it, b, st):
+    from .interp import State
+    it.state = State()
+
+
+@command("RESET", Form(), "system", "forget sources, rays and results; keep geometry")
+def _reset(it, b, st):
+    it.state.sources.clear()
+    it.state.pending_grid = None
+    it.step("RESET", {}, b.span, with_scene=False)
+
+
+@command("UNITS", Form((Choice("unit", LENGTH_UNITS),)), "system", "the unit of bare lengths (default MM)")
+def _units(it, b, st):
+    it.state.units = b["unit"]
+
+
+@command("WAVELENGTHS", Form((Variants("how", {"RANGE": Form((Rest("range"),))},
+                                       default=Form((Vs("lines", LENGTH),))),)),
+         "system", "the system's wavelength lines")
+def _wavelengths(it, b, st):
+    if b.variants.get("how") == "RANGE":
+        items = b["range"]
+        if len(items) != 3:
+            raise error(b.span_of("range") if items else b.span,
+                        f"WAVELENGTHS RANGE expects 3 values (first last count), got {len(items)}")
+        lo_i, hi_i, n_i = items
+        unit = n_i.unit if isinstance(n_i, A.Num) and n_i.unit else None
+        if isinstance(n_i, A.Num) and n_i.unit:
+            n_i = A.Num(n_i.value, None, n_i.text, n_i.span)
+        vals = []
+        for x in (lo_i, hi_i):
+            if unit and isinstance(x, A.Num) and x.unit is None:
+                x = A.Num(x.value, unit, x.text, x.span)
+            vals.append(it.to_dim(evaluate(x, it.env), LENGTH, x.span))
+        nq = it.to_dim(evaluate(n_i, it.env), NONE, n_i.span)
+        if nq != int(nq) or nq < 1:
+            raise error(n_i.span, f"WAVELENGTHS RANGE count must be a whole number >= 1, got {nq:g}")
+        n = int(nq)
+        if n == 1:
+            lines = [vals[0]]
+        else:
+            lines = [vals[0] + (vals[1] - vals[0]) * i / (n - 1) for i in range(n)]
+        span = b.span
+    else:
+        lines = list(b["lines"])
+        span = b.span_of("lines")
+    for i, w in enumerate(lines):
+        if not 1e-9 <= w <= 1e-3:
+            nm = w * 1e9
+            raise error(span, f"wavelength {w / it.length_factor():g} {it.state.units.lower()} "
+                        f"({nm:g} nm) is outside 1 nm .. 1 mm", "give the unit: WAVELENGTHS 450 550 650 NM")
+    nm = tuple(w * 1e9 for w in lines)
+    st_ = it.state
+    if st_.first_per_line is not None and len(nm) != len(st_.wavelengths_nm):
+        raise error(b.span, "WAVELENGTHS changes the number of lines after wavelength-dependent values were "
+                    "given", "put WAVELENGTHS first", notes=[(st_.first_per_line, "first wavelength-dependent value")])
+    st_.wavelengths_nm = nm
+    st_.wavelengths_span = b.span
+
+
+@command("SEED", Form((V("seed", integer=True, check=nonneg),)), "system", "the random seed of the run")
+def _seed(it, b, st):
+    it.state.seed = b["seed"]
+
+
+# ==================================================================== 4. materials and models
+def _index_check(x):
+    return None if x > 0 else "must be > 0"
+
+
+@command("MEDIUM", Form((Name("name"), Variants("kind", {
+    "INDEX": Form((PL("index", check=_index_check),),
+                  (Clause("ABSORB", (PL("absorb", INV_LENGTH, check=nonneg),), doc="extinction coefficient"),)),
+    "SELLMEIER": Form((Vs("coefficients", n=6),),
+                      (Clause("ABSORB", (PL("absorb", INV_LENGTH, check=nonneg),)),)),
+    "TABLE": Form((Path("file"),), (Clause("ABSORB", (PL("absorb", INV_LENGTH, check=nonneg),)),)),
+}))), "materials", "a refractive medium: INDEX per line, SELLMEIER or TABLE")
+def _medium(it, b, st):
+    from ..io.tables import read_table
+
+    name, kind = b["name"], b.variants["kind"]
+    it.fail("medium", name)
+    lam_um = [w * 1e-3 for w in it.state.wavelengths_nm]
+    params = {}
+    absorb = b["absorb"].values if "absorb" in b else (0.0,) * it.n_lines()
+    if kind == "INDEX":
+        n = b["index"].values
+    elif kind == "SELLMEIER":
+        B1, B2, B3, C1, C2, C3 = b["coefficients"]
+        n = []
+        for l in lam_um:
+            l2 = l * l
+            n2 = 1 + B1 * l2 / (l2 - C1) + B2 * l2 / (l2 - C2) + B3 * l2 / (l2 - C3)
+            if n2 <= 0:
+                raise error(b.span_of("coefficients"), f"SELLMEIER gives n^2 = {n2:g} <= 0 at {l * 1e3:g} nm")
+            n.append(math.sqrt(n2))
+        n = tuple(n)
+        params = dict(zip(("B1", "B2", "B3", "C1", "C2", "C3"), b["coefficients"]))
+    else:
+        path = it.input_path(b["file"], b.span_of("file"))
+        tab = read_table(path, b.span_of("file"), min_cols=2, max_cols=3, what="wavelength_nm, n[, k]")
+        n = tuple(tab.interp(1, it.state.wavelengths_nm, b.span_of("file")))
+        if tab.ncols == 3 and "absorb" not in b:
+            k = tab.interp(2, it.state.wavelengths_nm, b.span_of("file"))
+            absorb = tuple(4 * math.pi * kk / (w * 1e-9) for kk, w in zip(k, it.state.wavelengths_nm))
+        params = {"file": str(path)}
+        it.n_lines()
+    it.define("medium", name.upper(), M.Medium(name, kind.lower(), tuple(n), tuple(absorb), M.frozen_params(params), b.span), b.span)
+
+
+@command("COATING", Form((Name("name"), Variants("kind", {
+    "REFLECT": Form((PL("reflect", check=unit_interval),), (Clause("TRANSMIT", (PL("transmit", check=unit_interval),)),)),
+    "TRANSMIT": Form((PL("transmit", check=unit_interval),), (Clause("REFLECT", (PL("reflect", check=unit_interval),)),)),
+    "FRESNEL": Form(),
+}))), "materials", "a coating: R and T per line (A = 1 - R - T), or FRESNEL")
+def _coating(it, b, st):
+    name, kind = b["name"], b.variants["kind"]
+    it.fail("coating", name)
+    if kind == "FRESNEL":
+        c = M.Coating(name, "fresnel", (), (), b.span)
+    else:
+        n = it.n_lines()
+        r = b["reflect"].values if "reflect" in b else (0.0,) * n
+        t = b["transmit"].values if "transmit" in b else (0.0,) * n
+        for i, (x, y) in enumerate(zip(r, t)):
+            if x + y > 1.0 + 1e-12:
+                raise error(b.span, f"coating {name}: R + T = {x:g} + {y:g} = {x + y:g} > 1 on line {i + 1} "
+                            f"({it.state.wavelengths_nm[i]:g} nm)", "R + T + A = 1 with A >= 0")
+        c = M.Coating(name, "rt", tuple(r), tuple(t), b.span)
+    it.define("coating", name.upper(), c, b.span)
+
+
+@command("SPECTRUM", Form((Variants("kind", {
+    "OF": Form((Ref("object", "object"), Path("file", optional=True))),
+}, default=Form((Name("name"), Variants("source", {
+    "SOLAR": Form((), (Clause("TSI", (V("tsi", (-2, 0, 0, 1, 0), check=positive),), doc="total solar irradiance at 1 AU"),)),
+    "TABLE": Form((Path("file"),)),
+    "BLACKBODY": Form((V("temperature", (0, 0, 0, 0, 1), check=positive),)),
+}))))),), "materials", "define a spectrum (SOLAR, TABLE, BLACKBODY); SPECTRUM OF obj: flux per line")
+def _spectrum(it, b, st):
+    if b.variants["kind"] == "OF":
+        it.step("SPECTRUM_OF", {"object": b["object"], "file": b.get("file")}, b.span)
+        return
+    from ..io.spectra import make_spectrum
+
+    name = b["name"]
+    it.fail("spectrum", name)
+    sp = make_spectrum(it, b, name, b.variants["source"])
+    it.define("spectrum", name.upper(), sp, b.span)
+
+
+def _model_form() -> Form:
+    return Form((Name("name"), Variants("kind", {k: m.FORM for k, m in BSDFS.items()})))
+
+
+@command("MODEL", _model_form(), "materials", "a scatter model (BSDF): " + ", ".join(BSDFS))
+def _model(it, b, st):
+    name, kind = b["name"], b.variants["kind"]
+    it.fail("model", name)
+    params = BSDFS[kind].build(b, it)
+    it.define("model", name.upper(), M.ScatterModel(name, kind, M.frozen_params(params), b.span), b.span)
+
+
+MAP_DATASETS = ("LANDCOVER", "LAND_MASK", "CLOUD_FRACTION", "SNOW_FRACTION", "SEA_ICE_FRACTION", "ELEVATION")
+
+
+@command("MAP", Form((Name("name"), Variants("kind", {"LATLON": Form((Variants("from", {
+    "DEFAULT": Form((Choice("dataset", MAP_DATASETS),))}, default=Form((Path("file"),))),))}))),
+         "materials", "a global latitude-longitude grid from a file or a built-in dataset")
+def _map(it, b, st):
+    name = b["name"]
+    it.fail("map", name)
+    if b.variants["from"] == "DEFAULT":
+        m = M.MapDef(name, "LATLON", None, b["dataset"], b.span)
+    else:
+        from ..io.maps import check_latlon_file
+
+        path = it.input_path(b["file"], b.span_of("file"))
+        check_latlon_file(path, b.span_of("file"))
+        m = M.MapDef(name, "LATLON", str(path), None, b.span)
+    it.define("map", name.upper(), m, b.span)
+
+
+# ==================================================================== 5. geometry
+@command("SURFACE", Form(), "geometry", "start a geometry block (closed by OBJECT name)")
+def _surface(it, b, st):
+    from .interp import _SurfaceBlock
+
+    if it.state.block is not None:
+        prev = it.state.block.span
+        it.state.block = _SurfaceBlock(b.span)
+        raise error(b.span, "SURFACE inside an open SURFACE block", "close the previous block with OBJECT name",
+                    notes=[(prev, "the open block")])
+    it.state.block = _SurfaceBlock(b.span)
+    it.state.current = None
+
+
+def _surface_cmd(kind):
+    mod = SURFACES[kind]
+
+    def handler(it, b, st):
+        if it.state.block is None:
+            raise error(b.head_span, f"{kind} must be inside a SURFACE block", "write SURFACE on the line before")
+        it.state.block.surfaces.append(mod.build(b, it))
+    TABLE[kind] = CommandDef(kind, mod.FORM, handler, "geometry", (mod.__doc__ or "").strip().splitlines()[0])
+
+
+for _k in SURFACES:
+    _surface_cmd(_k)
+
+
+@command("OBJECT", Form((Name("name"),)), "geometry", "close a SURFACE block: the object, now current")
+def _object(it, b, st):
+    name = b["name"]
+    blk = it.state.block
+    if blk is None:
+        raise error(b.head_span, "OBJECT without SURFACE", "start the geometry with SURFACE")
+    it.state.block = None
+    if not blk.surfaces:
+        raise error(b.span, f"object {name} has no surface", "put PLANE, CONIC, SPHERE, ... between SURFACE and OBJECT")
+    it.fail("object", name)
+    obj = M.SceneObject(name, tuple(blk.surfaces), M.IDENTITY, group=it.current_group(), span=b.span)
+    it.define("object", name.upper(), obj, b.span, unique=True)
+    it.state.current = name.upper()
+
+
+def _current(it, b) -> M.SceneObject:
+    key = it.state.current
+    if key is None:
+        raise error(b.head_span, f"{b.head} has no current object to modify",
+                    "modifiers apply to the object of the last SURFACE ... OBJECT name; put it after OBJECT")
+    return it.state.objects[key]
+
+
+def _update(it, obj, **kw):
+    it.state.objects[obj.name.upper()] = M.replace(obj, **kw)
+
+
+@command("INTERFACE", Form((Variants("kind", {
+    "COATING": Form((Ref("coating", "coating"), Ref("back", "medium"), Ref("front", "medium"))),
+    "REFLECT": Form(),
+    "ABSORB": Form(),
+    "TRANSMIT": Form((Ref("back", "medium"), Ref("front", "medium"))),
+}),)), "geometry", "the current object's optical interface")
+def _interface(it, b, st):
+    obj = _current(it, b)
+    kind = b.variants["kind"].lower()
+    back, front = b.get("back", "AIR"), b.get("front", "AIR")
+    _update(it, obj, interface=M.Interface(kind, b.get("coating"), back, front, b.span))
+
+
+@command("SCATTER", Form((Variants("how", {
+    "MODEL": Form((Ref("model", "model"),)),
+    "MAP": Form((Ref("map", "map"),), (Clause("MODELS", (Param("models", "refs", None, ns="model"),), required=True),)),
+}),), (Clause("RAYS", (V("rays", integer=True, check=positive),)), Clause("TOWARD", (Ref("toward", "object"),)))),
+    "geometry", "scatter at the current object with a model, or per map class")
+def _scatter(it, b, st):
+    obj = _current(it, b)
+    if b.variants["how"] == "MODEL":
+        model = it.state.models[b["model"]]
+        mod = BSDFS[model.kind]
+        itf = obj.interface
+        if mod.transmits(model.params) and itf is not None and itf.kind in ("reflect", "absorb"):
+            raise error(b.span_of("model"), f"model {model.name} transmits, but object {obj.name} is opaque "
+                        f"(INTERFACE {itf.kind.upper()})", "give the object INTERFACE TRANSMIT or a model that only reflects")
+        spec = M.ScatterSpec(b["model"], None, (), b.get("rays", 1), b.get("toward"), b.span)
+    else:
+        spec = M.ScatterSpec(None, b["map"], tuple(b["models"]), b.get("rays", 1), b.get("toward"), b.span)
+    if spec.toward is not None and spec.toward == obj.name.upper():
+        raise error(b.span, f"object {obj.name} cannot scatter TOWARD itself")
+    _update(it, obj, scatter=obj.scatter + (spec,))
+
+
+@command("SHIFT", Form((Variants("how", {"X": Form((V("d", LENGTH),)), "Y": Form((V("d", LENGTH),)),
+                                          "Z": Form((V("d", LENGTH),))}, default=Form((Vs("d", LENGTH, n=3),))),)),
+         "geometry", "translate the current object (SHIFT x y z, or SHIFT X|Y|Z d)")
+def _shift(it, b, st):
+    obj = _current(it, b)
+    how = b.variants["how"]
+    d = tuple(b["d"]) if how is None else tuple(b["d"] if a == how else 0.0 for a in "XYZ")
+    _update(it, obj, transform=obj.transform.shifted(d))
+
+
+@command("ROTATE", Form((Axis(), V("angle", ANGLE)), (Clause("ABOUT", (Vs("about", LENGTH, n=3),)),)),
+         "geometry", "rotate the current object about an axis (right-handed)")
+def _rotate(it, b, st):
+    obj = _current(it, b)
+    _update(it, obj, transform=obj.transform.rotated(b["axis"], b["angle"], tuple(b.get("about", (0.0, 0.0, 0.0)))))
+
+
+@command("DETECTOR", Form((Choice("what", ("PIXELS",)), V("nx", integer=True), V("ny", integer=True, optional=True))),
+         "geometry", "the current object records an image of nx x ny pixels")
+def _detector(it, b, st):
+    obj = _current(it, b)
+    nx = b["nx"]
+    ny = b.get("ny", nx)
+    for lab, v in (("nx", nx), ("ny", ny)):
+        if v < 1:
+            raise error(b.span_of(lab), f"a detector needs at least 1 pixel, got {v}")
+    ap = [s.aperture for s in obj.surfaces if s.aperture is not None]
+    if not ap and not any(s.kind in ("PLANE", "CONIC") for s in obj.surfaces):
+        raise error(b.span, f"object {obj.name} has no flat aperture to tile with pixels",
+                    "a DETECTOR needs a PLANE or CONIC with RECT, DISK, ANNULUS or ELLIPSE")
+    if not ap:
+        raise error(b.span, f"object {obj.name} has no aperture: the pixel grid needs its bounding rectangle",
+                    "add RECT hx hy (or DISK r) to the surface")
+    _update(it, obj, detector=M.Detector(nx, ny, b.span))
+
+
+@command("GROUP", Form((Name("name"),)), "geometry", "objects up to END GROUP live in the group's own frame")
+def _group(it, b, st):
+    name = b["name"]
+    if it.state.block is not None:
+        raise error(b.span, "GROUP inside an open SURFACE block", "close it with OBJECT name first")
+    g = M.Group(name, it.current_group(), span=b.span)
+    it.define("group", name.upper(), g, b.span, unique=True)
+    it.state.group_stack.append(name.upper())
+    it.state.current = None
+
+
+@command("END GROUP", None, "geometry", "close a GROUP")
+def _end_group(it, b, st):
+    if it.state.block is not None:
+        raise error(st.span, "END GROUP inside an open SURFACE block", "close it with OBJECT name first")
+    if not it.state.group_stack:
+        raise error(st.span, "END GROUP without its opener: no GROUP is open")
+    it.state.group_stack.pop()
+    it.state.current = None
+
+
+@command("PLACE", Form((Ref("group", "group"),), (
+    Clause("AT", (Vs("at", LENGTH, n=3),), required=True), Clause("AIM", (Vs("aim", LENGTH, n=3),)),
+    Clause("UP", (Vs("up", NONE, n=3),)))), "geometry", "place a whole GROUP: AT a point, +Z toward AIM, +Y toward UP")
+def _place(it, b, st):
+    key = b["group"]
+    g = it.state.groups[key]
+    if key in it.state.group_stack:
+        raise error(b.span_of("group"), f"GROUP {g.name} cannot be placed inside itself")
+    if g.placed is not None:
+        raise error(b.span, f"GROUP {g.name} is already placed", notes=[(g.placed, "placed here")])
+    at = tuple(b["at"])
+    R = M.IDENTITY.R
+    if "aim" in b:
+        R = _aim_frame(at, tuple(b["aim"]), tuple(b.get("up", (0.0, 1.0, 0.0))), b)
+    elif "up" in b:
+        raise error(b.span_of("up"), "UP needs AIM")
+    parent = it.current_group()
+    # a group placed inside another one becomes its child: refuse cycles
+    p = parent
+    while p is not None:
+        if p == key:
+            raise error(b.span, f"GROUP {g.name} cannot be placed inside itself")
+        p = it.state.groups[p].parent
+    it.state.groups[key] = M.replace(g, parent=parent if parent is not None else g.parent,
+                                     placement=M.Transform(R, at), placed=b.span)
+
+
+def _aim_frame(at, aim, up, b):
+    z = [a - p for a, p in zip(aim, at)]
+    nz = math.sqrt(sum(c * c for c in z))
+    if nz == 0:
+        raise error(b.span_of("aim"), "AIM is the same point as AT")
+    z = [c / nz for c in z]
+    d = sum(u * c for u, c in zip(up, z))
+    y = [u - d * c for u, c in zip(up, z)]
+    ny = math.sqrt(sum(c * c for c in y))
+    if ny < 1e-12:
+        raise error(b.span_of("up") if "up" in b else b.span, "UP is parallel to the AIM direction",
+                    "give an UP vector that is not along the line of sight")
+    y = [c / ny for c in y]
+    x = [y[1] * z[2] - y[2] * z[1], y[2] * z[0] - y[0] * z[2], y[0] * z[1] - y[1] * z[0]]
+    # columns are the group's x, y, z axes in the parent frame
+    return (x[0], y[0], z[0], x[1], y[1], z[1], x[2], y[2], z[2])
+
+
+# ==================================================================== 7. sources
+def _source_cmd(head):
+    kinds = of_role(head)
+
+    def handler(it, b, st):
+        kind = b.variants["kind"]
+        mod = kinds[kind]
+        params = mod.build(b, it)
+        full = f"{head} {kind}"
+        if mod.ROLE == "grid":
+            if it.state.pending_grid is not None:
+                raise error(b.span, "this GRID follows another GRID that has no SOURCE direction",
+                            "give each GRID a SOURCE DIRECTION, POSITION or FIELD",
+                            notes=[(it.state.pending_grid[2], "the GRID without a direction")])
+            it.state.pending_grid = (full, params, b.span, it.current_group())
+        elif mod.ROLE == "direction":
+            g = it.state.pending_grid
+            if g is None:
+                raise error(b.head_span, f"{full} needs a GRID before it", "GRID RECT ... or GRID DISK ... first")
+            it.state.pending_grid = None
+            it.state.sources.append(M.Source(f"{g[0]}+{kind}", M.frozen_params({"grid": g[1], "direction": params}),
+                                             g[3], M.Flux("total", 1.0), g[2].to(b.span)))
+        else:
+            it.state.sources.append(M.Source(full, M.frozen_params(params), it.current_group(), M.Flux("total", 1.0), b.span))
+    TABLE[head] = CommandDef(head, Form((Variants("kind", {k: m.FORM for k, m in kinds.items()}),)), handler,
+                             "sources", {"GRID": "ray start points", "SOURCE": "directions for the last GRID",
+                                         "EMITTING": "a Lambertian emitter"}[head])
+
+
+for _h in ("GRID", "SOURCE", "EMITTING"):
+    _source_cmd(_h)
+
+
+@command("FLUX", Form((Variants("how", {"TOTAL": Form((V("flux", POWER, check=nonneg),)),
+                                         "SPECTRUM": Form((Ref("spectrum", "spectrum"),))}),)),
+         "sources", "the flux of the last source: TOTAL in W, or SPECTRUM name")
+def _flux(it, b, st):
+    if it.state.pending_grid is not None:
+        raise error(b.span, "FLUX follows a GRID that has no SOURCE direction yet", "put SOURCE ... before FLUX")
+    if not it.state.sources:
+        raise error(b.head_span, "FLUX has no source to apply to", "define a source first (GRID + SOURCE, or EMITTING)")
+    f = (M.Flux("total", b["flux"], None, b.span) if b.variants["how"] == "TOTAL"
+         else M.Flux("spectrum", None, b["spectrum"], b.span))
+    it.state.sources[-1] = M.replace(it.state.sources[-1], flux=f)
+
+
+# ==================================================================== 8. trace
+@command("LEVEL", Form((V("level", integer=True, check=positive),)), "trace", "at most this many interactions per ray")
+def _level(it, b, st):
+    it.state.level = b["level"]
+
+
+@command("HALT", Form((V("halt", check=lambda x: None if 0 <= x < 1 else "must be in [0, 1)"),)), "trace",
+         "below this share of its starting flux a ray plays Russian roulette")
+def _halt(it, b, st):
+    it.state.halt = b["halt"]
+
+
+@command("TRACE", Form((), (Clause("UNTIL", (Choice("what", ("ERROR",)), V("error", check=lambda x: None if 0 < x < 1 else "must be between 0 and 100%"),
+                                            Choice("on", ("ON",)), Ref("target", "object"))),)),
+         "trace", "trace every source defined since the last TRACE")
+def _trace(it, b, st):
+    s = it.state
+    if s.pending_grid is not None:
+        raise error(b.span, "a GRID has no SOURCE direction", notes=[(s.pending_grid[2], "this GRID")])
+    if not s.sources:
+        raise error(b.span, "TRACE has no source", "define GRID + SOURCE, or EMITTING ..., before TRACE")
+    if s.block is not None:
+        raise error(b.span, "TRACE inside an open SURFACE block", "close it with OBJECT name first")
+    for src in s.sources:
+        t = src.params.get("toward")
+        if t is not None and t not in s.objects:
+            raise error(src.span, f"TOWARD target '{t}' does not exist")
+    _check_scene(it, b)
+    it.step("TRACE", {"level": s.level, "halt": s.halt, "until_error": b.get("error"), "until_target": b.get("target")},
+            b.span)
+    s.sources.clear()
+
+
+def _check_scene(it, b) -> None:
+    """Cross-references that can only be checked once the scene is complete."""
+    s = it.state
+    for obj in s.objects.values():
+        for sc in obj.scatter:
+            if sc.map is not None:
+                m = s.maps[sc.map]
+                if m.path is not None:
+                    from ..io.maps import class_count
+
+                    n = class_count(m.path)
+                    if n is not None and n > len(sc.models):
+                        raise error(sc.span, f"map {m.name} has {n} classes but MODELS names {len(sc.models)}",
+                                    "name one model per class index 0 .. n-1")
+        itf = obj.interface
+        if itf is not None and itf.kind == "coating" and s.coatings[itf.coating].kind == "fresnel":
+            pass
+
+
+@command("SAVE", Form((Choice("what", ("RAYS",)), Path("file")), (Clause("AT", (Ref("at", "object"),)),)),
+         "trace", "save ray records (HDF5, docs/rayfile.md)")
+def _save(it, b, st):
+    it.step("SAVE_RAYS", {"file": b["file"], "at": b.get("at")}, b.span)
+
+
+@command("LOAD", Form((Choice("what", ("RAYS",)), Path("file"))), "trace", "load ray records saved by SAVE RAYS")
+def _load(it, b, st):
+    path = it.input_path(b["file"], b.span_of("file"))
+    it.step("LOAD_RAYS", {"file": str(path)}, b.span)
+
+
+# ==================================================================== 9. selection and analysis
+@command("CONSIDER", Form((Variants("how", {"ONLY": Form((Param("objects", "refs", None, ns="object"),)),
+                                             "ALL": Form()}),)), "analysis", "restrict the scene to some objects")
+def _consider(it, b, st):
+    it.step("CONSIDER", {"objects": b.get("objects")}, b.span)
+
+
+SELECT_FUNCS = {"HIT": 1, "LAST": 1, "SCATTERED": 1, "PATH": None, "WAVELENGTH": 2}
+
+
+@command("SELECT", Form((Rest("predicate"),)), "analysis", "select rays by their history")
+def _select(it, b, st):
+    items = b["predicate"]
+    if not items:
+        raise error(b.span, "SELECT needs ALL or a predicate", "SELECT ALL, or SELECT HIT(fpa) AND NOT SCATTERED(vanes)")
+    if len(items) == 1 and isinstance(items[0], A.Word) and match_keyword(items[0].name, ["ALL"], items[0].span):
+        it.step("SELECT", {"predicate": None}, b.span)
+        return
+    pred = _predicate(it, items)
+    it.step("SELECT", {"predicate": pred}, b.span)
+
+
+def _predicate(it, items):
+    """Items -> ('and'|'or', a, b) | ('not', a) | (FUNC, args) with NOT > AND > OR."""
+    pos = [0]
+
+    def peek():
+        return items[pos[0]] if pos[0] < len(items) else None
+
+    def op(word):
+        x = peek()
+        return isinstance(x, A.WordOp) and x.op == word
+
+    def p_or():
+        left = p_and()
+        while op("OR"):
+            pos[0] += 1
+            left = ("or", left, p_and())
+        return left
+
+    def p_and():
+        left = p_not()
+        while op("AND"):
+            pos[0] += 1
+            left = ("and", left, p_not())
+        return left
+
+    def p_not():
+        if op("NOT"):
+            pos[0] += 1
+            return ("not", p_not())
+        x = peek()
+        if x is None:
+            raise error(items[-1].span, "SELECT predicate ends too early")
+        pos[0] += 1
+        return _pred_expr(it, x)
+
+    res = p_or()
+    if pos[0] != len(items):
+        raise error(items[pos[0]].span, "expected AND or OR between predicates")
+    return res
+
+
+def _pred_expr(it, e):
+    if isinstance(e, A.Paren):
+        return _pred_expr(it, e.expr)
+    if isinstance(e, A.BinOp) and e.op in ("AND", "OR"):
+        return (e.op.lower(), _pred_expr(it, e.left), _pred_expr(it, e.right))
+    if isinstance(e, A.UnOp) and e.op == "NOT":
+        return ("not", _pred_expr(it, e.operand))
+    if isinstance(e, A.Call):
+        f = e.name.upper()
+        if f not in SELECT_FUNCS:
+            raise error(e.name_span, f"unknown predicate '{e.name}'", did_you_mean(e.name, SELECT_FUNCS))
+        n = SELECT_FUNCS[f]
+        if n is not None and len(e.args) != n:
+            raise error(e.span, f"{f}() takes {n} argument{'s' if n > 1 else ''}, got {len(e.args)}")
+        if f == "WAVELENGTH":
+            lo, hi = (it.to_dim(evaluate(a, it.env), LENGTH, a.span) * 1e9 for a in e.args)
+            return ("WAVELENGTH", (lo, hi))
+        if not e.args:
+            raise error(e.span, f"{f}() needs at least one object")
+        names = []
+        for a in e.args:
+            if not isinstance(a, (A.Word, A.Str)):
+                raise error(a.span, f"{f}() takes object names")
+            nm = a.name if isinstance(a, A.Word) else it.string(a)
+            names.append(it.resolve("object", nm, a.span))
+        return (f, tuple(names))
+    raise error(e.span, "expected a predicate: HIT(o) LAST(o) SCATTERED(o) PATH(a, b, ...) WAVELENGTH(lo, hi)")
+
+
+@command("STATS", Form((Choice("what", ("LEDGER", "POSITION", "DIRECTION"), optional=True), Path("file", optional=True))),
+         "analysis", "statistics of the selected rays; LEDGER: the energy ledger per object")
+def _stats(it, b, st):
+    it.step("STATS", {"what": b.get("what"), "file": b.get("file")}, b.span)
+
+
+@command("WINDOW", Form((Axis("axis1"), V("min1", LENGTH), V("max1", LENGTH), Axis("axis2"), V("min2", LENGTH),
+                         V("max2", LENGTH))), "analysis", "the analysis window: two axes and their ranges")
+def _window(it, b, st):
+    if b["axis1"] == b["axis2"]:
+        raise error(b.span_of("axis2"), "WINDOW needs two different axes")
+    for a, lo, hi in (("axis1", "min1", "max1"), ("axis2", "min2", "max2")):
+        if b[lo] >= b[hi]:
+            raise error(b.span_of(hi), f"WINDOW {b[a]}: the maximum must exceed the minimum")
+    it.step("WINDOW", {k: b[k] for k in ("axis1", "min1", "max1", "axis2", "min2", "max2")}, b.span, with_scene=False)
+
+
+@command("PIXELS", Form((V("nx", integer=True, check=positive), V("ny", integer=True, check=positive, optional=True))),
+         "analysis", "the analysis grid (ny defaults to nx)")
+def _pixels(it, b, st):
+    it.step("PIXELS", {"nx": b["nx"], "ny": b.get("ny", b["nx"])}, b.span, with_scene=False)
+
+
+@command("SPOTS", Form((Choice("what", ("POSITION", "DIRECTION")), Path("file", optional=True))), "analysis",
+         "irradiance map of the selected rays in the window (or their directions)")
+def _spots(it, b, st):
+    it.step("SPOTS", {"what": b["what"], "file": b.get("file")}, b.span)
+
+
+@command("FOCUS", Form(), "analysis", "best-focus shift along the axis and its RMS spot radius")
+def _focus(it, b, st):
+    it.step("FOCUS", {}, b.span)
+
+
+@command("EXPORT", Form((Ref("object", "object"), Path("file"))), "analysis",
+         "write the object's image: .fits .png .npy .csv by extension")
+def _export(it, b, st):
+    f = b["file"]
+    ext = f.rsplit(".", 1)[-1].lower() if "." in f else ""
+    if ext not in ("fits", "fit", "png", "npy", "csv"):
+        raise error(b.span_of("file"), f"EXPORT cannot write '.{ext}' files", "use .fits, .png, .npy or .csv")
+    it.step("EXPORT", {"object": b["object"], "file": f}, b.span)

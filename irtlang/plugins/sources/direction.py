@@ -1,0 +1,23 @@
+"""SOURCE DIRECTION dx dy dz
+
+Gives the rays of the preceding GRID one direction (collimated).  The vector need not be normalized.
+
+| parameter | unit | meaning |
+|---|---|---|
+| dx dy dz | 1 | direction cosines (any length > 0) |
+"""
+from ...lang.diagnostics import error
+from ...lang.spec import Form, Vs
+
+KIND = "SOURCE DIRECTION"
+ROLE = "direction"
+FORM = Form((Vs("direction", n=3),))
+EXAMPLE = "GRID RECT Z 0 -1 1 -1 1 3 3\nSOURCE DIRECTION 0 0 1"
+
+
+def build(b, ctx) -> dict:
+    d = b["direction"]
+    n = sum(x * x for x in d) ** 0.5
+    if n == 0:
+        raise error(b.span_of("direction"), "SOURCE DIRECTION needs a non-zero vector")
+    return {"direction": tuple(x / n for x in d)}

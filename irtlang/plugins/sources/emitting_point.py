@@ -1,0 +1,33 @@
+"""EMITTING POINT x y z RAYS n [CONE half_angle [AXIS dx dy dz]] [TOWARD target]
+
+An isotropic point source; with CONE only within that half-angle of AXIS (default +z); with TOWARD only
+toward the target, weighted by the solid angle it subtends.
+
+| parameter | unit | meaning |
+|---|---|---|
+| x y z | length | position |
+| RAYS | count | rays per wavelength line |
+| CONE | angle (bare: deg) | emission half-angle about AXIS (default 180: all directions) |
+| AXIS | 1 | cone axis (default 0 0 1) |
+| TOWARD | object | importance target |
+"""
+from ...lang.diagnostics import error
+from ...lang.spec import Clause, Form, V, Vs
+from ...lang.units import ANGLE, LENGTH
+from ._common import RAYS, TOWARD
+
+KIND = "EMITTING POINT"
+ROLE = "emitter"
+FORM = Form((V("x", LENGTH), V("y", LENGTH), V("z", LENGTH)),
+            (RAYS, Clause("CONE", (V("cone", ANGLE, check=lambda x: None if 0 < x <= 3.14159265358979 + 1e-12 else "must be in (0, 180] deg"),)),
+             Clause("AXIS", (Vs("axis", n=3),)), TOWARD))
+EXAMPLE = "EMITTING POINT 0 0 0 RAYS 1000 CONE 5 AXIS 0 0 1"
+
+
+def build(b, ctx) -> dict:
+    ax = tuple(b.get("axis", (0.0, 0.0, 1.0)))
+    n = sum(x * x for x in ax) ** 0.5
+    if n == 0:
+        raise error(b.span_of("axis"), "AXIS needs a non-zero vector")
+    return {"position": (b["x"], b["y"], b["z"]), "rays": b["rays"], "cone": b.get("cone", 3.141592653589793),
+            "axis": tuple(x / n for x in ax), "toward": b.get("toward")}
