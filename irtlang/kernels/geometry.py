@@ -34,8 +34,15 @@ Quadratics are solved with ``q = -(B + sign(B) sqrt(B^2 - A C))``, ``t = q / A``
 "citardauq" pair: no cancellation; A = 0 degrades to the linear root C / q = -C / (2 B)), and the
 discriminant ``B^2 - A C`` is evaluated à la Kahan: when it cancels badly it is recomputed from exact
 products (Dekker's TwoProduct with Veltkamp splitting), so grazing and tangent rays keep a correct
-discriminant. An origin exactly on the surface has C = 0 and gets the root t = 0 exactly, while the other
-root keeps full relative accuracy.
+discriminant. When the ray approaches from far away (its closest approach to the vertex lies ahead,
+t0 > 0, and ``|o|_inf > SHIFT_RATIO = 16`` times the distance of that point), the quadratic is solved from
+that closest point and shifted back by t0: the coefficients' rounding grows like c |o|^2, so a far origin
+(1e12) would otherwise destroy the discriminant; the shift perturbs the line by ~eps |o|, the size of the
+origin's own rounding. The origin is used as is when it is near, moving away, or on the surface
+(|C| <= NEAR_SURFACE = 1e-3 times the sum of C's terms): a ray leaving the surface keeps the exact line, so
+an origin exactly on the surface gets C = 0 and the root t = 0, while the other root keeps full relative
+accuracy, even at grazing departure. ``hit_tube`` does the same about
+the point (0, 0, (z1 + z2) / 2).
 
 With aspheric terms, each vertex-sheet conic root (or, when the conic is missed, the plane root) seeds a
 Newton iteration on ``g(t) = z(t) - sag(r(t)^2)``; a root that leaves the conic's domain, meets a
@@ -54,12 +61,17 @@ frustum whose radius goes linearly from r1 at z1 to r2 at z2 (a cylinder when r1
 Self-intersection policy
 ------------------------
 A ray leaving a surface starts (to rounding) on it. The hit routines return both roots, including the
-~0 one, so the caller must reject ``t <= tmin``. Use ``self_hit_tmin(ox, oy, oz, dx, dy, dz, size)``:
-``tmin = EPS_SELF * max(size, |o|_inf) / |d|_inf`` with ``EPS_SELF = 1e-9`` and ``size`` the surface's
-characteristic size (e.g. its aperture radius), i.e. 1e-9 of the local length scale (0.15 nm on a 150 mm
-mirror, 6 mm on the Earth). Thanks to the citardauq roots, the *other* root of the surface just left keeps
-full accuracy (e.g. the far side of a sphere), so the same tmin works for re-hits of the same surface.
-This is why traces must be done in local frames: the positions' own rounding is ~1e-16 |o|.
+~0 one, so the caller must reject it. Two rules, both cheap:
+1. every surface: accept only ``t > tmin`` with ``tmin = self_hit_tmin(ox, oy, oz, dx, dy, dz, size)``
+   ``= EPS_SELF * max(size, |o|_inf) / |d|_inf``, ``EPS_SELF = 1e-9``, ``size`` the surface's characteristic
+   size (e.g. its aperture radius): 1e-9 of the local length scale (0.15 nm on a 150 mm mirror, 6 mm on the
+   Earth), 1e7 times the rounding of the positions themselves (~1e-16 |o|, which is why traces are done in
+   local frames);
+2. the surface the ray has just left: first drop the root of smallest |t| (``drop_leaving_root``), which is
+   the origin itself, then apply rule 1 to the other. This stays right at grazing departures, where the
+   origin's rounding (~eps |o|) divided by the grazing angle can push the "zero" root past any tmin.
+Thanks to the citardauq roots, the *other* root of the surface just left keeps full accuracy (the far side
+of a sphere, the second crossing of a paraboloid).
 """
 import math
 
@@ -91,6 +103,8 @@ __all__ = [
     "dir_to_local",
     "dir_to_world",
     "self_hit_tmin",
+    "drop_leaving_root",
+    "first_after",
     "solve_quadratic",
     "normalize3",
 ]
@@ -98,6 +112,8 @@ __all__ = [
 INF = np.inf
 EPS_SELF = 1e-9
 NEWTON_MAX_IT = 40
+SHIFT_RATIO = 16.0
+NEAR_SURFACE = 1e-3
 _SPLITTER = 134217729.0  # 2**27 + 1 (Veltkamp)
 _SPLIT_MAX = 1e145  # above this the split could overflow: skip compensation
 _SHEET_TOL = 1e-9
@@ -347,21 +363,46 @@ def _asph_newton(ox, oy, oz, dx, dy, dz, c, k, asph, t0):
 
 
 @numba.njit(cache=True, fastmath=False)
+def _closest_approach(ox, oy, oz, dx, dy, dz, cz):
+    """Parameter t0 of the ray's closest approach to (0, 0, cz) and the point there."""
+    dd = dx * dx + dy * dy + dz * dz
+    t0 = -(ox * dx + oy * dy + (oz - cz) * dz) / dd
+    if not math.isfinite(t0):
+        t0 = 0.0
+    return t0, ox + t0 * dx, oy + t0 * dy, oz + t0 * dz
+
+
+@numba.njit(cache=True, fastmath=False)
 def hit_conic(ox, oy, oz, dx, dy, dz, c, k, asph):
     """Conic (+ even asphere) with vertex at the origin, axis +z: (t1, t2) sorted, inf where absent."""
     if dx == 0.0 and dy == 0.0 and dz == 0.0:
         return INF, INF
-    t1, t2 = _conic_quadric_roots(ox, oy, oz, dx, dy, dz, c, k)
-    if asph.shape[0] == 0:
-        return t1, t2
-    if t1 == INF and t2 == INF:
-        t1, _ = hit_plane(ox, oy, oz, dx, dy, dz)
-        if t1 == INF:
-            return INF, INF
+    # solve from the ray's closest approach to the vertex: keeps the quadratic's coefficients of the
+    # size of the problem when the origin is far away (their rounding scales like c |o|^2)
+    t0, px, py, pz = _closest_approach(ox, oy, oz, dx, dy, dz, 0.0)
+    if t0 > 0.0 and max(abs(ox), abs(oy), abs(oz)) > SHIFT_RATIO * max(abs(px), abs(py), abs(pz)):
+        # far, approaching: shift, unless the origin is (algebraically) close to the surface itself
+        r2 = ox * ox + oy * oy
+        kc = (1.0 + k) * c
+        cterm = abs(c) * r2 + abs(kc) * oz * oz + 2.0 * abs(oz)
+        if abs(c * r2 + kc * oz * oz - 2.0 * oz) <= NEAR_SURFACE * cterm:
+            t0, px, py, pz = 0.0, ox, oy, oz
+    else:
+        t0, px, py, pz = 0.0, ox, oy, oz  # near enough, or moving away: keep the exact origin
+    t1, t2 = _conic_quadric_roots(px, py, pz, dx, dy, dz, c, k)
+    if asph.shape[0] != 0:
+        if t1 == INF and t2 == INF:
+            t1, _ = hit_plane(px, py, pz, dx, dy, dz)
+            if t1 == INF:
+                return INF, INF
+        if t1 != INF:
+            t1 = _asph_newton(px, py, pz, dx, dy, dz, c, k, asph, t1)
+        if t2 != INF:
+            t2 = _asph_newton(px, py, pz, dx, dy, dz, c, k, asph, t2)
     if t1 != INF:
-        t1 = _asph_newton(ox, oy, oz, dx, dy, dz, c, k, asph, t1)
+        t1 += t0
     if t2 != INF:
-        t2 = _asph_newton(ox, oy, oz, dx, dy, dz, c, k, asph, t2)
+        t2 += t0
     return _sort2(t1, t2)
 
 
@@ -422,6 +463,18 @@ def hit_tube(ox, oy, oz, dx, dy, dz, z1, r1, z2, r2):
         z1, z2 = z2, z1
         r1, r2 = r2, r1
     sl = (r2 - r1) / (z2 - z1)
+    if dx == 0.0 and dy == 0.0 and dz == 0.0:
+        return INF, INF
+    # solve from the closest approach to the tube's centre (far origins, see hit_conic)
+    zc = 0.5 * (z1 + z2)
+    t0, px, py, pz = _closest_approach(ox, oy, oz, dx, dy, dz, zc)
+    rho0 = math.hypot(ox, oy)
+    w0 = abs(r1 + sl * (oz - z1))
+    if (t0 > 0.0 and max(abs(ox), abs(oy), abs(oz - zc)) > SHIFT_RATIO * max(abs(px), abs(py), abs(pz - zc))
+            and abs(rho0 - w0) > NEAR_SURFACE * (rho0 + w0)):
+        ox, oy, oz = px, py, pz
+    else:
+        t0 = 0.0
     w = r1 + sl * (oz - z1)  # r(z) at the origin's height (may be negative off the frustum)
     a = dx * dx + dy * dy - sl * sl * dz * dz
     b = ox * dx + oy * dy - w * sl * dz
@@ -433,10 +486,14 @@ def hit_tube(ox, oy, oz, dx, dy, dz, z1, r1, z2, r2):
         z = oz + t1 * dz
         if z < z1 or z > z2:
             t1 = INF
+        else:
+            t1 += t0
     if t2 != INF:
         z = oz + t2 * dz
         if z < z1 or z > z2:
             t2 = INF
+        else:
+            t2 += t0
     return _sort2(t1, t2)
 
 
@@ -518,6 +575,24 @@ def to_world(px, py, pz, dx, dy, dz, R, T):
     wx, wy, wz = dir_to_world(px, py, pz, R)
     wdx, wdy, wdz = dir_to_world(dx, dy, dz, R)
     return wx + T[0], wy + T[1], wz + T[2], wdx, wdy, wdz
+
+
+@numba.njit(cache=True, fastmath=False)
+def drop_leaving_root(t1, t2):
+    """For the surface a ray has just left: drop the root nearest 0 (the origin), return (other, inf)."""
+    if abs(t1) <= abs(t2):
+        return t2, INF
+    return t1, INF
+
+
+@numba.njit(cache=True, fastmath=False)
+def first_after(t1, t2, tmin):
+    """The first of the sorted roots (t1, t2) greater than tmin, or inf (no aperture test)."""
+    if t1 > tmin:
+        return t1
+    if t2 > tmin:
+        return t2
+    return INF
 
 
 @numba.njit(cache=True, fastmath=False)

@@ -13,9 +13,9 @@ Conventions
   theta <= t; the full hemisphere's Lambertian flux share inside the cone is sin^2 t (ORACLES.md).
 * Henyey-Greenstein: ``p(mu) = (1 - g^2) / (4 pi (1 + g^2 - 2 g mu)^1.5)`` per steradian, mean cosine g.
   ``hg_sample`` evaluates the inverse CDF of ORACLES.md, ``mu = [1 + g^2 - ((1 - g^2)/(1 - g + 2 g u))^2]/(2 g)``,
-  in the algebraically equal form ``mu = [w + g (3 + w^2 + 2 g w + g^2 (w^2 - 1)) / 2] / (1 + g w)^2`` with
-  w = 2u - 1, which has no cancellation as g -> 0 (it tends to the isotropic mu = w) and is exact at
-  u = 0, 1 (mu = -1, 1).
+  in the algebraically equal form ``mu = w + 2 g u (1 - u) (3 - g^2 + 2 g w) / (1 + g w)^2`` with w = 2u - 1
+  (expand both over (1 + g w)^2): no division by g, no cancellation as g -> 0 (it tends to the isotropic
+  mu = w), and exactly -1 and 1 at u = 0 and 1.
 * ``onb(nx, ny, nz)``: the branchless orthonormal basis of Duff et al. (JCGT 6(1), 2017), ``(t1, t2, n)``
   right-handed (t1 x t2 = n); the normal is normalised first.
 """
@@ -180,8 +180,7 @@ def hg_sample(u, g):
     gw = 1.0 + g * w
     if gw == 0.0:  # only g = +/-1 with u at the far end: a delta in the forward/backward direction
         return 1.0 if g > 0.0 else -1.0
-    num = w + 0.5 * g * (3.0 + w * w + 2.0 * g * w + g * g * (w * w - 1.0))
-    mu = num / (gw * gw)
+    mu = w + 2.0 * g * u * (1.0 - u) * (3.0 - g * g + 2.0 * g * w) / (gw * gw)
     return min(1.0, max(-1.0, mu))
 
 

@@ -48,7 +48,7 @@ def evaluate(e, env: Env) -> Value:
     if isinstance(e, A.Num):
         if e.unit is not None and e.unit not in UNITS:
             raise error(e.span, f"unknown unit '{e.unit}'", did_you_mean(e.unit, UNITS))
-        return quantity(e.value, e.unit)
+        return _finite(quantity(e.value, e.unit), e.span, "number out of range")
     if isinstance(e, A.Word):
         v = env.lookup(e.name)
         if v is None:
@@ -69,14 +69,21 @@ def evaluate(e, env: Env) -> Value:
         q = _num(v, e.operand.span)
         return Quantity(-q.value if e.op == "-" else q.value, q.dim)
     if isinstance(e, A.BinOp):
-        return _binop(e, env)
+        return _finite(_binop(e, env), e.span, "arithmetic overflow: the result is not a finite number")
     if isinstance(e, A.Call):
-        return _call(e, env)
+        return _finite(_call(e, env), e.span, "arithmetic overflow: the result is not a finite number")
     if isinstance(e, A.Repeat):
         raise error(e.span, "n@v repeats values in an argument list; it is not a value by itself")
     if isinstance(e, A.WordOp):
         raise error(e.span, f"{e.op} belongs inside an expression or a SELECT predicate")
     raise error(getattr(e, "span", None), f"cannot evaluate {type(e).__name__}")  # pragma: no cover
+
+
+def _finite(v: Value, span: Span, message: str) -> Value:
+    """Values are always finite: 1e400, 1e200 * 1e200 and the like are errors where they are written."""
+    if isinstance(v, Quantity) and not math.isfinite(v.value):
+        raise error(span, message)
+    return v
 
 
 def truth(v: Value, span: Span) -> bool:
@@ -149,7 +156,11 @@ def _binop(e: A.BinOp, env: Env) -> Value:
         if b.value != int(b.value):
             raise error(e.right.span, f"{dim_name(a.dim)} can only be raised to an integer power")
         n = int(b.value)
-        return Quantity(a.value ** n, tuple(x * n for x in a.dim))
+        try:
+            r = a.value ** n
+        except (OverflowError, ZeroDivisionError):
+            raise error(e.span, "arithmetic overflow or 0 to a negative power") from None
+        return Quantity(r, tuple(x * n for x in a.dim))
     raise error(e.op_span, f"unknown operator {e.op}")  # pragma: no cover
 
 
@@ -245,6 +256,8 @@ def format_value(v: Value, env: Env, spec: str | None = None) -> str:
         else:
             x = v.value / env.default_factor(v.dim)
     if spec:
+        if spec[-1:] in ("d", "x", "X", "o", "b", "c", "n") and math.isfinite(x) and x == int(x):
+            x = int(x)  # a whole number takes the integer formats ('{i:03d}')
         return format(x, spec)  # ValueError for a bad spec: reported by interpolate()
     return fmt_number(x)
 

@@ -10,6 +10,7 @@ interleaves with PRINT as written.  With no engine (``irt check``) steps are onl
 from __future__ import annotations
 
 import hashlib
+import math
 import sys
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -211,7 +212,10 @@ class Interpreter(BindContext):
         lo = a.value if a.dim is not None else a.value * fa
         hi = b.value if b.dim is not None else b.value * fa
         dv = step.value if step.dim is not None else step.value * fa
-        n = int((hi - lo) / dv + 1e-9) + 1 if (hi - lo) * dv >= 0 else 0
+        span_n = (hi - lo) / dv + 1e-9
+        if not math.isfinite(span_n) or span_n > MAX_LOOP_ITERATIONS:
+            raise error(st.span, f"DO loop of more than {MAX_LOOP_ITERATIONS} iterations")
+        n = int(span_n) + 1 if (hi - lo) * dv >= 0 else 0
         if n > MAX_LOOP_ITERATIONS:
             raise error(st.span, f"DO loop of {n} iterations (more than {MAX_LOOP_ITERATIONS})")
         for i in range(n):

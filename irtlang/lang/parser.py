@@ -13,7 +13,7 @@ from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, VisitError
 
 from . import ast as A
-from .diagnostics import IrtError, Source, Span, error
+from .diagnostics import IrtError, Source, Span, did_you_mean, error
 from .units import UNITS, parse_qty_token
 
 
@@ -143,6 +143,10 @@ class _ToAst(Transformer):
     @v_args(tree=True)
     def command(self, tree):
         head, *items = tree.children
+        for a, b in zip(items, items[1:]):  # `550nmm`: letters touching a number are a unit it does not know
+            if (isinstance(a, A.Num) and a.unit is None and isinstance(b, A.Word) and b.span.line == a.span.end_line
+                    and b.span.col == a.span.end_col and not a.text.rstrip().endswith("%")):
+                raise _unknown_unit(b.span, b.name)
         return A.Command(str(head), self._sp(head), tuple(items), _meta_span(self.src, tree.meta))
 
     @v_args(tree=True)
@@ -310,6 +314,9 @@ def _syntax_error(e: UnexpectedInput, src: Source, text: str, line_offset: int =
         return error(at, what + (f": {exp}" if exp else ""))
     val = str(tok)
     exp = _describe_expected(expected)
+    pos = getattr(tok, "start_pos", None)
+    if ttype == "NAME" and pos and (text[pos - 1].isdigit() or text[pos - 1] == "."):
+        return _unknown_unit(Span(src, gl, gc, gl, gc + len(val)), val)
     if ttype == "EQUAL":
         return error(at, "unexpected '=': an assignment is 'name = value' at the start of a statement"
                      + (f"; {exp}" if exp else ""), "compare with '=='")
@@ -318,10 +325,15 @@ def _syntax_error(e: UnexpectedInput, src: Source, text: str, line_offset: int =
     return error(at, f"unexpected {val!r}" + (f": {exp}" if exp else ""))
 
 
+def _unknown_unit(span: Span, word: str):
+    known = " ".join(u for u in UNITS if u != "%")
+    return error(span, f"unknown unit '{word}'", did_you_mean(word, UNITS) or f"known units: {known}")
+
+
 # ---------------------------------------------------------------- blocks
 def _check_text(data: bytes, name: str) -> str:
     if b"\x00" in data[:65536]:
-        raise error(Span(None, 0, 0, 0, 0), f"{name} is not a text file (it contains NUL bytes)")
+        raise error(Span(Source(name, ""), 0, 0, 0, 0), f"{name} is not a text file (it contains NUL bytes)")
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as e:

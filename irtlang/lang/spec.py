@@ -11,6 +11,7 @@ it to be a value).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Sequence
 
@@ -315,7 +316,7 @@ def _value_item(it) -> bool:
 
 def _bind_param(p: Param, cur: _Cursor, ctx, b: Bound, stop_kws: list, where: str) -> None:
     it = cur.peek()
-    if it is None or (isinstance(it, A.Word) and p.kind in ("val", "vals", "perline")
+    if (it is None and p.kind != "rest") or (isinstance(it, A.Word) and p.kind in ("val", "vals", "perline")
                       and match_keyword(it.name, stop_kws, it.span)):
         if p.optional:
             return
@@ -477,6 +478,8 @@ def _take_list(p: Param, cur: _Cursor, ctx, stop_kws: list, where: str):
 def _convert(p: Param, it, ctx, where: str) -> float:
     v = ctx.eval(it)
     x = ctx.to_dim(v, p.dim, it.span)
+    if isinstance(x, float) and not math.isfinite(x):  # a huge bare length times a large UNITS
+        raise error(it.span, f"{where}: {p.label} is out of range")
     if p.integer:
         if x != int(x):
             raise error(it.span, f"{where}: {p.label} must be a whole number, got {x:g}")

@@ -5,17 +5,18 @@ normalize(tan(angle_x), tan(angle_y), 1) in the grid's local frame.
 
 | parameter | unit | meaning |
 |---|---|---|
-| angle_x angle_y | angle (bare: deg) | field angles along local x and y |
+| angle_x angle_y | angle (bare: deg) | field angles along local x and y; a unit after the pair applies to both |
 """
-from ...lang.spec import Form, V
+from ...lang.spec import Form, Vs
 from ...lang.units import ANGLE
 
 KIND = "SOURCE FIELD"
 ROLE = "direction"
-FORM = Form((V("angle_x", ANGLE, check=lambda a: None if abs(a) < 1.57 else "must be within +-90 deg"),
-             V("angle_y", ANGLE, check=lambda a: None if abs(a) < 1.57 else "must be within +-90 deg")))
+# one list of two, so that a trailing unit applies to both (`SOURCE FIELD 0.05 0.02 mrad`)
+FORM = Form((Vs("angles", ANGLE, n=2, check=lambda a: None if abs(a) < 1.57 else "must be within +-90 deg"),))
 EXAMPLE = "GRID DISK Z -100 150 RAYS 1000\nSOURCE FIELD 0.05 0.02 deg"
 
 
 def build(b, ctx) -> dict:
-    return {"angle_x": b["angle_x"], "angle_y": b["angle_y"]}
+    ax, ay = b["angles"]
+    return {"angle_x": ax, "angle_y": ay}

@@ -7,13 +7,13 @@ from ...model.scene import Aperture
 CLAUSES = (
     Clause("RECT", (V("half_x", LENGTH, check=positive), V("half_y", LENGTH, check=positive)),
            doc="rectangle of half-widths along local x and y"),
-    Clause("DISK", (V("radius", LENGTH, check=positive),), doc="disk of radius r"),
+    Clause("DISK", (V("disk_radius", LENGTH, check=positive),), doc="disk of radius r"),
     Clause("ANNULUS", (V("r_in", LENGTH, check=nonneg), V("r_out", LENGTH, check=positive)),
            doc="ring between r_in and r_out"),
     Clause("ELLIPSE", (V("semi_x", LENGTH, check=positive), V("semi_y", LENGTH, check=positive)),
            doc="ellipse of semi-axes along local x and y"),
 )
-_LABELS = {"RECT": ("half_x", "half_y"), "DISK": ("radius",), "ANNULUS": ("r_in", "r_out"),
+_LABELS = {"RECT": ("half_x", "half_y"), "DISK": ("disk_radius",), "ANNULUS": ("r_in", "r_out"),
            "ELLIPSE": ("semi_x", "semi_y")}
 
 

@@ -23,7 +23,8 @@ from .plane import axis_frame
 
 KIND = "CONIC"
 FORM = Form((Axis(), V("vertex", LENGTH)), (
-    Clause("RADIUS", (V("radius", LENGTH),), required=True, doc="vertex radius of curvature"),
+    # label "R", not "radius": the DISK aperture's parameter is "radius" and would overwrite it
+    Clause("RADIUS", (V("R", LENGTH),), required=True, doc="vertex radius of curvature"),
     Clause("CONIC", (V("k", NONE),), doc="conic constant"),
     Clause("ASPHERE", (Vs("coefficients", NONE),), doc="even asphere terms a4 a6 ..."),
 ) + CLAUSES)
@@ -31,9 +32,9 @@ EXAMPLE = "SURFACE\n  CONIC Z 0 RADIUS -4200 CONIC -1 ANNULUS 45 150\nOBJECT 'M1
 
 
 def build(b, ctx) -> Surface:
-    R = b["radius"]
+    R = b["R"]
     if R == 0:
-        raise error(b.span_of("radius"), "RADIUS 0 is not a curvature", "use a PLANE for a flat surface")
+        raise error(b.span_of("R"), "RADIUS 0 is not a curvature", "use a PLANE for a flat surface")
     k = b.get("k", 0.0)
     # an asphere coefficient a_n multiplies r^n with r in the script's unit: convert to metres
     f = ctx.length_factor()

@@ -1,0 +1,273 @@
+"""Command line of the analysis package: ``irt analyze SUBCOMMAND ...`` or ``python -m analysis SUBCOMMAND ...``.
+
+Wiring into another argparse program::
+
+    analyze = subparsers.add_parser("analyze", help="analyse images, spectra and ray files")
+    analysis.cli.build_parser(analyze.add_subparsers(dest="analysis_command", required=True))
+    ...
+    return analysis.cli.run(args)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+import numpy as np
+
+from ._common import AnalysisError
+
+__all__ = ["build_parser", "run", "main"]
+
+_IMAGE_HELP = "image file: .npy, .csv, .txt, .fits or a ray file FILE.h5[:DETECTOR[:LINE]]"
+
+
+def _print(result, as_json):
+    def plain(v):
+        if isinstance(v, (np.floating, np.integer)):
+            return v.item()
+        if isinstance(v, np.ndarray):
+            return v.tolist()
+        if isinstance(v, tuple):
+            return [plain(x) for x in v]
+        return v
+
+    result = {k: plain(v) for k, v in result.items()}
+    if as_json:
+        print(json.dumps(result, indent=2))
+        return
+    for key, value in result.items():
+        if value is None:
+            text = "n/a"
+        elif isinstance(value, list):
+            text = ", ".join(f"{x:.6g}" if isinstance(x, float) else str(x) for x in value)
+        elif isinstance(value, float):
+            text = f"{value:.6g}"
+        else:
+            text = str(value)
+        print(f"{key}: {text}")
+
+
+def _float_or_name(names):
+    def parse(text):
+        if text in names:
+            return None if text == "none" else text
+        try:
+            return float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected one of {', '.join(names)} or a number, got {text!r}")
+    return parse
+
+
+def _cmd_rgb(args):
+    from .color import rgb_composite, save_png
+    from .files import load_image
+
+    rgb = rgb_composite(load_image(args.red), load_image(args.green), load_image(args.blue),
+                        solar_irradiance=args.solar, stretch=args.stretch, percentile=args.percentile,
+                        gamma=args.gamma)
+    save_png(rgb, args.output)
+    return {"output": str(args.output), "shape": list(rgb.shape)}
+
+
+def _cmd_psf(args):
+    from .psf import psf_metrics, psf_metrics_rays
+
+    if args.rays:
+        from .rayfile import read_rays
+
+        rf = read_rays(args.image)
+        if rf.n_rays == 0:
+            raise AnalysisError(f"{args.image}: the ray file holds no ray records")
+        keep = np.ones(rf.n_rays, dtype=bool)
+        if args.object is not None:
+            if args.object not in rf.objects:
+                raise AnalysisError(f"no object {args.object!r} in the ray file; present: {', '.join(rf.objects)}")
+            keep &= rf.object == rf.objects.index(args.object)
+        if args.line is not None:
+            keep &= rf.line == args.line
+        if not keep.any():
+            raise AnalysisError("no ray records match the selection")
+        ax = ["xyz".index(c) for c in args.axes]
+        pos = rf.position[keep]
+        return psf_metrics_rays(pos[:, ax[0]], pos[:, ax[1]], rf.flux[keep])
+    from .files import load_image
+
+    reference = None
+    if args.reference is not None:
+        reference = load_image(args.reference)
+    return psf_metrics(load_image(args.image), args.pixel_pitch, reference=reference, center=args.center,
+                       total=args.total)
+
+
+def _cmd_mtf(args):
+    from .files import load_image
+    from .mtf import mtf50, slanted_edge_mtf
+
+    freq, mtf = slanted_edge_mtf(load_image(args.image), args.roi, oversample=args.oversample,
+                                 edge_fit_degree=args.edge_fit_degree)
+    if args.output:
+        _save_csv(args.output, np.column_stack([freq, mtf]), "frequency_cycles_per_px,mtf")
+    if args.plot:
+        from .plots import plot_mtf
+
+        plot_mtf(freq, mtf, args.plot)
+    return {"mtf50_cycles_per_px": mtf50(freq, mtf), "mtf_at_nyquist": float(np.interp(0.5, freq, mtf))}
+
+
+def _cmd_esf(args):
+    from .files import load_image
+    from .mtf import esf_slope, esf_width_10_90
+
+    img = load_image(args.image)
+    kw = {"oversample": args.oversample, "edge_fit_degree": args.edge_fit_degree}
+    return {"esf_slope_per_px": esf_slope(img, args.roi, half_span=args.half_span, **kw),
+            "esf_width_10_90_px": esf_width_10_90(img, args.roi, **kw)}
+
+
+def _cmd_defocus(args):
+    from .defocus import defocus_map, sparse_defocus_map
+    from .files import load_image
+
+    img = load_image(args.image)
+    dmap = defocus_map(img, method=args.method, sigma0=args.sigma0)
+    sparse, edges = sparse_defocus_map(img, sigma0=args.sigma0)
+    if args.output:
+        from ._common import atomic_path
+
+        with atomic_path(args.output) as tmp, open(tmp, "wb") as fh:
+            np.save(fh, dmap)
+    if args.plot:
+        from .plots import plot_defocus
+
+        plot_defocus(img, dmap, args.plot, edges=edges)
+    edge_values = sparse[np.isfinite(sparse)]
+    return {"median_sigma_px": float(np.median(dmap)),
+            "edge_median_sigma_px": float(np.median(edge_values)) if edge_values.size else None,
+            "edge_pixels": int(edge_values.size)}
+
+
+def _cmd_disk(args):
+    from .disk import disk_metrics
+    from .files import load_image
+
+    return disk_metrics(load_image(args.image), threshold=args.threshold, shape=args.shape,
+                        radius_km=args.radius_km)
+
+
+def _cmd_spectrum(args):
+    from .disk import disk_averaged_spectrum
+    from .files import load_array, load_cube
+
+    cube, wl, sum2 = load_cube(args.cube)
+    if args.wavelengths is not None:
+        wl = np.asarray(load_array(args.wavelengths), dtype=np.float64).reshape(-1)
+    mask = None if args.mask is None else np.asarray(load_array(args.mask)) != 0
+    wl, flux, se = disk_averaged_spectrum(cube, wl, mask=mask, sum2=sum2)
+    if args.output:
+        cols = [wl, flux] + ([se] if se is not None else [])
+        _save_csv(args.output, np.column_stack(cols), "wavelength_nm,flux" + (",stderr" if se is not None else ""))
+    return {"wavelength_nm": wl, "flux": flux, "stderr": se}
+
+
+def _save_csv(path, table, header):
+    from ._common import atomic_path
+
+    with atomic_path(path) as tmp:
+        np.savetxt(tmp, table, delimiter=",", header=header, comments="")
+
+
+def build_parser(subparsers):
+    """Add the analysis subcommands (rgb, psf, mtf, esf, defocus, disk, spectrum) to an argparse subparsers
+    action; each sets ``args._analysis_handler`` for :func:`run`."""
+
+    def add(name, handler, help_text):
+        p = subparsers.add_parser(name, help=help_text, description=help_text)
+        p.set_defaults(_analysis_handler=handler)
+        p.add_argument("--json", action="store_true", help="print the result as JSON")
+        return p
+
+    def roi(p, required=False):
+        p.add_argument("--roi", nargs=4, type=int, metavar=("X", "Y", "W", "H"), required=required,
+                       help="region: column and row of the top-left pixel, width, height (px)")
+
+    def edge_opts(p):
+        p.add_argument("--oversample", type=int, default=4, help="ESF bins per pixel (default 4)")
+        p.add_argument("--edge-fit-degree", type=int, default=1, help="polynomial degree of the edge (2 for a limb)")
+
+    p = add("rgb", _cmd_rgb, "true-colour composite of three band images (I/F, one stretch, sRGB) to PNG")
+    for band in ("red", "green", "blue"):
+        p.add_argument(band, help=_IMAGE_HELP)
+    p.add_argument("-o", "--output", required=True, help="output PNG")
+    p.add_argument("--solar", nargs=3, type=float, metavar=("E_R", "E_G", "E_B"),
+                   help="solar irradiance per band (white balance); omit if the bands are reflectance")
+    p.add_argument("--stretch", type=_float_or_name(("percentile", "max", "none")), default="percentile",
+                   help="common stretch: percentile (default), max, none or a white reflectance")
+    p.add_argument("--percentile", type=float, default=99.5, help="percentile for --stretch percentile")
+    p.add_argument("--gamma", type=_float_or_name(("srgb", "linear")), default="srgb",
+                   help="encoding: srgb (default), linear or an exponent")
+
+    p = add("psf", _cmd_psf, "PSF metrics: FWHM, 80%% encircled-energy diameter, RMS radius, ring, Strehl")
+    p.add_argument("image", help=_IMAGE_HELP + "; with --rays a ray file")
+    p.add_argument("--pixel-pitch", type=float, default=1.0, help="pixel pitch; lengths are printed in its unit")
+    p.add_argument("--center", nargs=2, type=float, metavar=("X", "Y"), help="centre in px (default centroid)")
+    p.add_argument("--total", type=float, help="total energy for normalisation (default the image sum)")
+    p.add_argument("--reference", help="diffraction-limited PSF image for the Strehl ratio")
+    p.add_argument("--rays", action="store_true", help="use the ray records of a ray file")
+    p.add_argument("--object", help="with --rays: keep rays whose last object is this one")
+    p.add_argument("--line", type=int, help="with --rays: keep one wavelength line")
+    p.add_argument("--axes", choices=("xy", "xz", "yz"), default="xy", help="with --rays: position columns")
+
+    p = add("mtf", _cmd_mtf, "slanted-edge MTF (ISO 12233) and MTF50")
+    p.add_argument("image", help=_IMAGE_HELP)
+    roi(p)
+    edge_opts(p)
+    p.add_argument("-o", "--output", help="write the MTF curve as CSV")
+    p.add_argument("--plot", help="write a figure (PNG/PDF/SVG)")
+
+    p = add("esf", _cmd_esf, "ESF slope and 10-90%% width of an edge in a region")
+    p.add_argument("image", help=_IMAGE_HELP)
+    roi(p, required=True)
+    edge_opts(p)
+    p.add_argument("--half-span", type=float, default=0.5, help="half the finite-difference span, px")
+
+    p = add("defocus", _cmd_defocus, "Zhuo & Sim defocus map (blur sigma in px)")
+    p.add_argument("image", help=_IMAGE_HELP)
+    p.add_argument("--method", choices=("matting", "guided", "fgs"), default="matting")
+    p.add_argument("--sigma0", type=float, default=2.0, help="re-blur sigma, px (default 2)")
+    p.add_argument("-o", "--output", help="write the map as .npy")
+    p.add_argument("--plot", help="write a figure (image, edges, map)")
+
+    p = add("disk", _cmd_disk, "limb ellipse, diameters, km/px, illuminated fraction and phase angle")
+    p.add_argument("image", help=_IMAGE_HELP)
+    p.add_argument("--threshold", type=float, default=0.02, help="lit threshold, fraction of the maximum")
+    p.add_argument("--shape", choices=("ellipse", "circle"), default="ellipse")
+    p.add_argument("--radius-km", type=float, help="equatorial radius of the body, km")
+
+    p = add("spectrum", _cmd_spectrum, "disk-integrated spectrum of an image cube (L, H, W)")
+    p.add_argument("cube", help="cube file (.npy, .fits) or ray file FILE.h5[:DETECTOR]")
+    p.add_argument("--wavelengths", help="wavelengths in nm (.npy or .csv); a ray file supplies its own")
+    p.add_argument("--mask", help="disk mask image (non-zero = disk)")
+    p.add_argument("-o", "--output", help="write the spectrum as CSV")
+    return subparsers
+
+
+def run(args):
+    """Run the subcommand chosen in ``args`` (from a parser built with :func:`build_parser`). Prints the result;
+    returns 0, or 2 after printing ``error: ...`` to stderr for bad input (no traceback)."""
+    try:
+        result = args._analysis_handler(args)
+    except (AnalysisError, OSError, ValueError, KeyError) as exc:
+        message = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        print(f"error: {message}", file=sys.stderr)
+        return 2
+    _print(result, getattr(args, "json", False))
+    return 0
+
+
+def main(argv=None):
+    """Entry point of ``python -m analysis``."""
+    parser = argparse.ArgumentParser(prog="python -m analysis", description="irtlang analysis tools")
+    build_parser(parser.add_subparsers(dest="analysis_command", required=True, metavar="SUBCOMMAND"))
+    return run(parser.parse_args(argv))

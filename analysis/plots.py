@@ -1,0 +1,125 @@
+"""Figures for the analysis results (matplotlib, Agg canvas, no pyplot state). Every function takes arrays (the
+results of the pure functions of :mod:`analysis`), writes one image file atomically and returns its path."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from ._common import atomic_path
+
+__all__ = ["plot_rgb", "plot_defocus", "plot_mtf", "plot_esf", "plot_psf", "plot_spectra", "plot_time_wavelength"]
+
+
+def _figure(ncols=1, width=5.0, height=4.0):
+    fig = Figure(figsize=(width * ncols, height), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = [fig.add_subplot(1, ncols, k + 1) for k in range(ncols)]
+    return fig, axes
+
+
+def _save(fig, path, dpi=120):
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png")
+    return path
+
+
+def plot_rgb(rgb, path, *, title=None):
+    """Show an (H, W, 3) uint8 composite with axes in pixels."""
+    fig, (ax,) = _figure()
+    ax.imshow(rgb, origin="upper", interpolation="nearest")
+    ax.set_xlabel("column [px]")
+    ax.set_ylabel("row [px]")
+    if title:
+        ax.set_title(title)
+    return _save(fig, path)
+
+
+def plot_defocus(image, defocus, path, *, edges=None, difference=None, vmax=None):
+    """Image (with its edge map in red if given), defocus map (blur sigma, px) and optionally a difference map
+    (observation minus simulation, diverging colours), side by side."""
+    panels = 2 + (difference is not None)
+    fig, axes = _figure(panels, 4.2, 4.0)
+    axes[0].imshow(image, cmap="gray", origin="upper")
+    if edges is not None:
+        overlay = np.zeros(np.shape(edges) + (4,))
+        overlay[np.asarray(edges, bool)] = (1.0, 0.1, 0.1, 1.0)
+        axes[0].imshow(overlay, origin="upper", interpolation="nearest")
+    axes[0].set_title("image" + (" and edges" if edges is not None else ""))
+    im = axes[1].imshow(defocus, cmap="viridis", origin="upper", vmin=0, vmax=vmax)
+    fig.colorbar(im, ax=axes[1], label="blur sigma [px]")
+    axes[1].set_title("defocus map")
+    if difference is not None:
+        lim = float(np.nanmax(np.abs(difference))) or 1.0
+        im = axes[2].imshow(difference, cmap="RdBu_r", origin="upper", vmin=-lim, vmax=lim)
+        fig.colorbar(im, ax=axes[2], label="observation - simulation")
+        axes[2].set_title("difference")
+    return _save(fig, path)
+
+
+def plot_mtf(freq, mtf, path, *, reference=None, label="measured"):
+    """MTF against frequency (cycles/px); ``reference`` an optional (freq, mtf) pair drawn dashed; the MTF50 level
+    is marked."""
+    fig, (ax,) = _figure()
+    ax.plot(freq, mtf, label=label)
+    if reference is not None:
+        ax.plot(reference[0], reference[1], "--", label="reference")
+    ax.axhline(0.5, color="0.6", lw=0.8)
+    ax.set_xlabel("frequency [cycles/px]")
+    ax.set_ylabel("MTF")
+    ax.set_ylim(0, 1.05)
+    ax.legend()
+    return _save(fig, path)
+
+
+def plot_esf(distance, esf, path):
+    """Super-sampled edge-spread function against distance from the edge (px)."""
+    fig, (ax,) = _figure()
+    ax.plot(distance, esf, ".-", ms=3)
+    ax.set_xlabel("distance from edge [px]")
+    ax.set_ylabel("ESF")
+    return _save(fig, path)
+
+
+def plot_psf(radius, profile, path, *, ee_radius=None, ee=None, unit="px"):
+    """Azimuthally averaged PSF profile (log scale) and, if given, the encircled-energy curve."""
+    fig, axes = _figure(1 + (ee is not None), 4.5, 3.8)
+    axes[0].semilogy(radius, np.clip(profile, np.max(profile) * 1e-6, None))
+    axes[0].set_xlabel(f"radius [{unit}]")
+    axes[0].set_ylabel("mean intensity")
+    if ee is not None:
+        axes[1].plot(ee_radius, ee)
+        axes[1].axhline(0.8, color="0.6", lw=0.8)
+        axes[1].set_xlabel(f"radius [{unit}]")
+        axes[1].set_ylabel("encircled energy")
+        axes[1].set_ylim(0, 1.02)
+    return _save(fig, path)
+
+
+def plot_spectra(wavelengths_nm, spectra, path, *, labels=None, ylabel="flux"):
+    """One or more spectra (rows of ``spectra``) against wavelength (nm)."""
+    fig, (ax,) = _figure()
+    spectra = np.atleast_2d(spectra)
+    for k, s in enumerate(spectra):
+        ax.plot(wavelengths_nm, s, "o-", ms=3, label=None if labels is None else labels[k])
+    ax.set_xlabel("wavelength [nm]")
+    ax.set_ylabel(ylabel)
+    if labels is not None:
+        ax.legend()
+    return _save(fig, path)
+
+
+def plot_time_wavelength(values, times_h, wavelengths_nm, path, *, label="relative difference"):
+    """Time x wavelength map (rows: times in hours, columns: wavelengths in nm), diverging colours about 0."""
+    fig, (ax,) = _figure(1, 6.0, 4.0)
+    values = np.asarray(values, dtype=np.float64)
+    lim = float(np.nanmax(np.abs(values))) or 1.0
+    im = ax.pcolormesh(wavelengths_nm, times_h, values, cmap="RdBu_r", vmin=-lim, vmax=lim, shading="nearest")
+    fig.colorbar(im, ax=ax, label=label)
+    ax.set_xlabel("wavelength [nm]")
+    ax.set_ylabel("time [h]")
+    return _save(fig, path)

@@ -1,0 +1,444 @@
+"""Scene model -> packed arrays with integer kind codes (the tracer's only input besides scalars).
+
+Everything is in metres.  World translations are stored as double-double pairs (``*_hi``, ``*_lo``):
+an object 0.18 AU away keeps sub-nanometre placement, so a telescope far from the origin focuses exactly
+as it does at the origin (DESIGN.md, "Precision across scales").  Compositions of group placements are
+summed with ``math.fsum`` so the pair is the exact sum to double-double precision.
+
+Kind codes (kept in one place, used by the kernels):
+  surfaces  SK_PLANE SK_CONIC SK_SPHERE SK_ELLIPSOID SK_TUBE SK_MESH
+  apertures AP_NONE AP_RECT AP_DISK AP_ANNULUS AP_ELLIPSE
+  interface IF_ABSORB IF_REFLECT IF_SPLIT (R/T table) IF_FRESNEL (R and T from the two media)
+  sources   SRC_GRID_RECT SRC_GRID_DISK SRC_SPHERE SRC_DISK SRC_POINT
+  direction DIR_COLLIMATED DIR_DIVERGE DIR_CONVERGE DIR_FIELD DIR_LAMBERT
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..io.spectra import band_edges
+from ..lang.diagnostics import Span, error
+from ..model import scene as M
+
+SK_PLANE, SK_CONIC, SK_SPHERE, SK_ELLIPSOID, SK_TUBE, SK_MESH = range(6)
+SURFACE_CODES = {"PLANE": SK_PLANE, "CONIC": SK_CONIC, "SPHERE": SK_SPHERE, "ELLIPSOID": SK_ELLIPSOID,
+                 "TUBE": SK_TUBE, "MESH": SK_MESH}
+AP_NONE, AP_RECT, AP_DISK, AP_ANNULUS, AP_ELLIPSE = range(5)
+APERTURE_CODES = {None: AP_NONE, "RECT": AP_RECT, "DISK": AP_DISK, "ANNULUS": AP_ANNULUS, "ELLIPSE": AP_ELLIPSE}
+IF_ABSORB, IF_REFLECT, IF_SPLIT, IF_FRESNEL = range(4)
+SRC_GRID_RECT, SRC_GRID_DISK, SRC_SPHERE, SRC_DISK, SRC_POINT = range(5)
+DIR_COLLIMATED, DIR_DIVERGE, DIR_CONVERGE, DIR_FIELD, DIR_LAMBERT = range(5)
+N_TERMINAL_ROWS = 4   # EMITTED, ESCAPED, HALTED, LOST (after the objects and the absorbing media)
+
+
+class MissingFeature(Exception):
+    def __init__(self, span: Span, what: str, capability: str):
+        self.span, self.what, self.capability = span, what, capability
+        super().__init__(what)
+
+
+@dataclass
+class Features:
+    """What a scene needs; the kernel is specialized on it (irtlang.compile.specialize)."""
+
+    conic: bool = False
+    quadric: bool = False      # sphere, ellipsoid, tube
+    mesh: bool = False
+    refract: bool = False      # any transmitting interface
+    absorb_media: bool = False
+    precise: bool = False      # translations beyond 1e6 m: double-double positions
+    records: bool = False
+    history: bool = False
+
+    def key(self) -> str:
+        return "".join("1" if getattr(self, f) else "0" for f in self.__dataclass_fields__)
+
+
+@dataclass
+class Packed:
+    lines_nm: np.ndarray
+    line_width_nm: np.ndarray
+    object_names: list
+    medium_names: list
+    absorbing_media: list          # medium indices that get a ledger row
+    features: Features
+    # surfaces
+    s_obj: np.ndarray
+    s_kind: np.ndarray
+    s_par: np.ndarray               # (n, 6)
+    s_asph: np.ndarray              # (n, 8) a4.. (metres)
+    s_nasph: np.ndarray
+    s_ap_kind: np.ndarray
+    s_ap: np.ndarray                # (n, 2)
+    s_R: np.ndarray                 # (n, 9) local -> world
+    s_Th: np.ndarray                # (n, 3)
+    s_Tl: np.ndarray
+    s_size: np.ndarray              # characteristic size, for the self-hit tolerance
+    s_mesh: np.ndarray              # index into the mesh table, -1
+    # meshes (concatenated BVHs; each mesh's child and tri indices are local to its slices)
+    m_node_off: np.ndarray
+    m_node_n: np.ndarray
+    m_tri_off: np.ndarray
+    m_tri_n: np.ndarray
+    bvh_bmin: np.ndarray
+    bvh_bmax: np.ndarray
+    bvh_child: np.ndarray
+    bvh_count: np.ndarray
+    bvh_tris: np.ndarray
+    bvh_ids: np.ndarray
+    bvh_fn: np.ndarray
+    # objects
+    o_itf: np.ndarray
+    o_coat: np.ndarray
+    o_back: np.ndarray
+    o_front: np.ndarray
+    o_det: np.ndarray
+    # media and coatings (per line)
+    med_n: np.ndarray               # (M, L)
+    med_alpha: np.ndarray           # (M, L) 1/m
+    med_row: np.ndarray             # (M,) ledger row of an absorbing medium, -1
+    coat_R: np.ndarray              # (C, L)
+    coat_T: np.ndarray
+    # detectors (pixel grid in the surface's local x, y)
+    d_obj: np.ndarray
+    d_nx: np.ndarray
+    d_ny: np.ndarray
+    d_ext: np.ndarray               # (D, 4) x0 x1 y0 y1 (metres)
+    detector_names: list
+    # sources
+    src_kind: np.ndarray
+    src_dir: np.ndarray
+    src_par: np.ndarray             # (S, 12)
+    src_R: np.ndarray               # (S, 9)
+    src_Th: np.ndarray
+    src_Tl: np.ndarray
+    src_n: np.ndarray               # rays per line
+    src_off: np.ndarray             # first ray id
+    src_w: np.ndarray               # (S, L) flux per ray, W
+    src_random: np.ndarray
+    src_toward: np.ndarray          # object index, -1
+    src_pts: np.ndarray             # lattice points of GRID DISK (concatenated (K, 2))
+    src_pts_off: np.ndarray
+    n_rays_total: int = 0
+    emitted_W: np.ndarray = field(default_factory=lambda: np.zeros(0))   # per line
+
+    @property
+    def n_rows(self) -> int:
+        return len(self.object_names) + len(self.absorbing_media) + N_TERMINAL_ROWS
+
+    @property
+    def row_names(self) -> list:
+        return (list(self.object_names) + [f"MEDIUM {self.medium_names[m]}" for m in self.absorbing_media]
+                + ["EMITTED", "ESCAPED", "HALTED", "LOST"])
+
+
+def _dd_translate(R_parent, T_parent_hi, T_parent_lo, t_child):
+    """(hi, lo) of T_parent + R_parent @ t_child, exact to double-double."""
+    hi, lo = [], []
+    for i in range(3):
+        parts = [T_parent_hi[i], T_parent_lo[i]] + [R_parent[3 * i + k] * t_child[k] for k in range(3)]
+        h = math.fsum(parts)
+        hi.append(h)
+        lo.append(math.fsum(parts + [-h]))
+    return tuple(hi), tuple(lo)
+
+
+def world_frame(scene: M.Scene, local: M.Transform, group: str | None):
+    """(R, T_hi, T_lo) of a frame given in `group`'s coordinates."""
+    R = local.R
+    Th, Tl = tuple(local.T), (0.0, 0.0, 0.0)
+    g = group
+    while g is not None:
+        grp = scene.groups[g]
+        P = grp.placement
+        Rn = M._matmul(P.R, R)
+        Th2, Tl2 = _dd_translate(P.R, P.T, (0.0, 0.0, 0.0), Th)
+        # carry the child's low part through the rotation too
+        Tl2 = tuple(a + sum(P.R[3 * i + k] * Tl[k] for k in range(3)) for i, a in enumerate(Tl2))
+        R, Th, Tl = Rn, Th2, Tl2
+        g = grp.parent
+    return R, Th, Tl
+
+
+def _surface_size(s: M.Surface) -> float:
+    p = s.params
+    if s.aperture is not None:
+        from ..plugins.surfaces._aperture import outer_radius
+
+        return outer_radius(s.aperture)
+    return {"SPHERE": lambda: p["radius"], "ELLIPSOID": lambda: max(p["a"], p["b"], p["c"]),
+            "TUBE": lambda: max(p["r1"], p["r2"], abs(p["z2"] - p["z1"])),
+            "MESH": lambda: float(np.ptp(p["vertices"], axis=0).max()),
+            "CONIC": lambda: abs(1.0 / p["c"]) if p["c"] else 1.0, "PLANE": lambda: 1.0}[s.kind]()
+
+
+def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Packed:
+    from ..kernels.bvh import build_bvh
+
+    L = scene.n_lines
+    lines = np.asarray(scene.wavelengths_nm, float)
+    widths = (np.diff(band_edges(lines), axis=1)[:, 0] if L > 1 else np.ones(1))
+    feats = Features(records=records, history=history)
+
+    obj_keys = list(scene.objects)
+    obj_index = {k: i for i, k in enumerate(obj_keys)}
+    med_keys = list(scene.media)
+    med_index = {k: i for i, k in enumerate(med_keys)}
+    coat_keys = list(scene.coatings)
+    coat_index = {k: i for i, k in enumerate(coat_keys)}
+
+    # media and coatings
+    med_n = np.array([np.broadcast_to(np.asarray(scene.media[k].index, float), (L,)) for k in med_keys])
+    med_alpha = np.array([np.broadcast_to(np.asarray(scene.media[k].absorb, float), (L,)) for k in med_keys])
+    coat_R = np.zeros((max(1, len(coat_keys)), L))
+    coat_T = np.zeros((max(1, len(coat_keys)), L))
+    for k, i in coat_index.items():
+        c = scene.coatings[k]
+        if c.kind == "rt":
+            coat_R[i], coat_T[i] = c.reflect, c.transmit
+
+    # objects
+    nO = len(obj_keys)
+    o_itf = np.zeros(nO, np.int32)
+    o_coat = np.full(nO, -1, np.int32)
+    o_back = np.zeros(nO, np.int32)
+    o_front = np.zeros(nO, np.int32)
+    o_det = np.full(nO, -1, np.int32)
+    used_media = set()
+    det_rows = []
+    for i, k in enumerate(obj_keys):
+        obj = scene.objects[k]
+        for sc in obj.scatter:
+            raise MissingFeature(sc.span, "SCATTER", "the scattering models (issue: scattering)")
+        itf = obj.interface
+        if itf is None or itf.kind == "absorb":
+            o_itf[i] = IF_ABSORB
+        elif itf.kind == "reflect":
+            o_itf[i] = IF_REFLECT
+        else:
+            o_back[i], o_front[i] = med_index[itf.back], med_index[itf.front]
+            used_media.update((itf.back, itf.front))
+            if itf.kind == "transmit" or scene.coatings[itf.coating].kind == "fresnel":
+                o_itf[i] = IF_FRESNEL
+            else:
+                o_itf[i] = IF_SPLIT
+                o_coat[i] = coat_index[itf.coating]
+            if np.any(coat_T[o_coat[i]] > 0) if o_itf[i] == IF_SPLIT else True:
+                feats.refract = True
+        if obj.detector is not None:
+            o_det[i] = len(det_rows)
+            det_rows.append((i, obj))
+    absorbing = [med_index[m] for m in sorted(used_media, key=med_keys.index) if np.any(med_alpha[med_index[m]] > 0)]
+    feats.absorb_media = bool(absorbing)
+    med_row = np.full(len(med_keys), -1, np.int32)
+    for j, m in enumerate(absorbing):
+        med_row[m] = nO + j
+
+    # surfaces
+    rows = []
+    meshes = []
+    for i, k in enumerate(obj_keys):
+        obj = scene.objects[k]
+        for s in obj.surfaces:
+            local = obj.transform
+            frame = M.Transform(M._matmul(local.R, s.frame.R), local.apply(s.frame.T))
+            R, Th, Tl = world_frame(scene, frame, obj.group)
+            rows.append((i, s, R, Th, Tl))
+    nS = len(rows)
+    s_obj = np.zeros(nS, np.int32)
+    s_kind = np.zeros(nS, np.int32)
+    s_par = np.zeros((nS, 6))
+    s_asph = np.zeros((nS, 8))
+    s_nasph = np.zeros(nS, np.int32)
+    s_ap_kind = np.zeros(nS, np.int32)
+    s_ap = np.zeros((nS, 2))
+    s_R = np.zeros((nS, 9))
+    s_Th = np.zeros((nS, 3))
+    s_Tl = np.zeros((nS, 3))
+    s_size = np.zeros(nS)
+    s_mesh = np.full(nS, -1, np.int32)
+    for j, (i, s, R, Th, Tl) in enumerate(rows):
+        s_obj[j] = i
+        s_kind[j] = SURFACE_CODES[s.kind]
+        p = s.params
+        if s.kind == "CONIC":
+            s_par[j, :2] = p["c"], p["k"]
+            a = p["asphere"]
+            if len(a) > 8:
+                raise error(s.span, "at most 8 ASPHERE terms (a4 .. a18)")
+            s_asph[j, :len(a)] = a
+            s_nasph[j] = len(a)
+            feats.conic = True
+        elif s.kind == "SPHERE":
+            s_par[j, 0] = p["radius"]
+            feats.quadric = True
+        elif s.kind == "ELLIPSOID":
+            s_par[j, :3] = p["a"], p["b"], p["c"]
+            feats.quadric = True
+        elif s.kind == "TUBE":
+            s_par[j, :4] = p["z1"], p["r1"], p["z2"], p["r2"]
+            feats.quadric = True
+        elif s.kind == "MESH":
+            s_mesh[j] = len(meshes)
+            meshes.append(build_bvh(p["vertices"], p["faces"]))
+            feats.mesh = True
+        if s.aperture is not None:
+            s_ap_kind[j] = APERTURE_CODES[s.aperture.kind]
+            s_ap[j, :len(s.aperture.params)] = s.aperture.params
+        s_R[j], s_Th[j], s_Tl[j] = R, Th, Tl
+        s_size[j] = _surface_size(s)
+        if max(abs(x) for x in Th) > 1e6:
+            feats.precise = True
+
+    # meshes
+    def cat(idx, dtype, shape):
+        arrs = [m[idx] for m in meshes]
+        return np.ascontiguousarray(np.concatenate(arrs).astype(dtype)) if arrs else np.zeros(shape, dtype)
+
+    m_node_n = np.array([len(m[2]) for m in meshes], np.int64)
+    m_tri_n = np.array([len(m[4]) for m in meshes], np.int64)
+    m_node_off = np.concatenate([[0], np.cumsum(m_node_n)[:-1]]).astype(np.int64) if meshes else np.zeros(0, np.int64)
+    m_tri_off = np.concatenate([[0], np.cumsum(m_tri_n)[:-1]]).astype(np.int64) if meshes else np.zeros(0, np.int64)
+
+    # detectors: pixels tile the aperture's bounding rectangle in the first surface's local x, y
+    nD = len(det_rows)
+    d_obj = np.zeros(nD, np.int32)
+    d_nx = np.zeros(nD, np.int32)
+    d_ny = np.zeros(nD, np.int32)
+    d_ext = np.zeros((nD, 4))
+    for d, (i, obj) in enumerate(det_rows):
+        ap = next(s.aperture for s in obj.surfaces if s.aperture is not None)
+        if ap.kind == "RECT":
+            hx, hy = ap.params
+        elif ap.kind == "ELLIPSE":
+            hx, hy = ap.params
+        else:
+            hx = hy = ap.params[-1]
+        d_obj[d], d_nx[d], d_ny[d] = i, obj.detector.nx, obj.detector.ny
+        d_ext[d] = (-hx, hx, -hy, hy)
+
+    src = _pack_sources(scene, lines, widths, obj_index)
+    for t in src["src_Th"]:
+        if np.max(np.abs(t)) > 1e6:
+            feats.precise = True
+    return Packed(lines, widths, [scene.objects[k].name for k in obj_keys], [scene.media[k].name for k in med_keys],
+                  absorbing, feats, s_obj, s_kind, s_par, s_asph, s_nasph, s_ap_kind, s_ap, s_R, s_Th, s_Tl, s_size,
+                  s_mesh, m_node_off, m_node_n, m_tri_off, m_tri_n,
+                  cat(0, np.float64, (0, 3)), cat(1, np.float64, (0, 3)), cat(2, np.int64, (0, 2)),
+                  cat(3, np.int64, (0,)), cat(4, np.float64, (0, 9)), cat(5, np.int64, (0,)),
+                  cat(6, np.float64, (0, 3)),
+                  o_itf, o_coat, o_back, o_front, o_det, med_n, med_alpha, med_row, coat_R, coat_T,
+                  d_obj, d_nx, d_ny, d_ext, [scene.objects[obj_keys[i]].name for i, _ in det_rows], **src)
+
+
+def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
+    from ..plugins.surfaces.plane import axis_frame
+
+    L = len(lines)
+    S = len(scene.sources)
+    out = dict(src_kind=np.zeros(S, np.int32), src_dir=np.zeros(S, np.int32), src_par=np.zeros((S, 12)),
+               src_R=np.zeros((S, 9)), src_Th=np.zeros((S, 3)), src_Tl=np.zeros((S, 3)), src_n=np.zeros(S, np.int64),
+               src_off=np.zeros(S, np.int64), src_w=np.zeros((S, L)), src_random=np.zeros(S, np.int32),
+               src_toward=np.full(S, -1, np.int32))
+    pts, pts_off = [], []
+    total = 0
+    emitted = np.zeros(L)
+    npts = 0
+    for i, s in enumerate(scene.sources):
+        p = s.params
+        kind = s.kind
+        par = out["src_par"][i]
+        area = None          # the source's emitting area for FLUX SPECTRUM in W/m2/nm
+        if kind.startswith("GRID"):
+            g, d = p["grid"], p["direction"]
+            frame = axis_frame(g["axis"], g["position"])
+            if kind.startswith("GRID RECT"):
+                out["src_kind"][i] = SRC_GRID_RECT
+                par[:4] = g["x_min"], g["x_max"], g["y_min"], g["y_max"]
+                par[4:6] = g["nx"], g["ny"]
+                n = g["nx"] * g["ny"]
+                area = (g["x_max"] - g["x_min"]) * (g["y_max"] - g["y_min"])
+            else:
+                out["src_kind"][i] = SRC_GRID_DISK
+                par[0] = g["radius"]
+                area = math.pi * g["radius"] ** 2
+                if g["random"]:
+                    n = g["rays"]
+                else:
+                    h = math.sqrt(area / g["rays"])
+                    m = int(math.ceil(g["radius"] / h)) + 1
+                    xs = (np.arange(-m, m + 1) * h)
+                    X, Y = np.meshgrid(xs, xs)
+                    keep = X ** 2 + Y ** 2 <= g["radius"] ** 2
+                    lat = np.stack([X[keep], Y[keep]], axis=1)
+                    pts.append(lat)
+                    n = len(lat)
+            pts_off.append(npts)
+            npts += n if (kind.startswith("GRID DISK") and not g["random"]) else 0
+            out["src_random"][i] = int(g["random"])
+            dk = kind.split("+")[1]
+            if dk == "DIRECTION":
+                out["src_dir"][i] = DIR_COLLIMATED
+                dv = d["direction"]
+                # the direction is given in the source's frame (the group's), not the grid plane's
+                par[6:9] = _inv_rotate(frame.R, dv)
+            elif dk == "POSITION":
+                out["src_dir"][i] = DIR_CONVERGE if d["converge"] else DIR_DIVERGE
+                par[6:9] = _inv_rotate(frame.R, tuple(a - b for a, b in zip(d["point"], frame.T)))
+            else:
+                out["src_dir"][i] = DIR_FIELD
+                par[6:8] = d["angle_x"], d["angle_y"]
+        else:
+            pts_off.append(npts)
+            out["src_dir"][i] = DIR_LAMBERT
+            if kind == "EMITTING SPHERE":
+                out["src_kind"][i] = SRC_SPHERE
+                frame = M.Transform(T=p["centre"])
+                par[0] = p["radius"]
+                area = 4 * math.pi * (1.495978707e11) ** 2     # FLUX SPECTRUM: irradiance at 1 AU
+            elif kind == "EMITTING DISK":
+                out["src_kind"][i] = SRC_DISK
+                frame = axis_frame(p["axis"], p["position"])
+                par[0], par[1] = p["radius"], p["cone"]
+                area = math.pi * p["radius"] ** 2
+            else:
+                out["src_kind"][i] = SRC_POINT
+                frame = M.Transform(T=p["position"])
+                par[1] = p["cone"]
+                par[2:5] = p["axis"]
+            n = p["rays"]
+            if p.get("toward") is not None:
+                out["src_toward"][i] = obj_index[p["toward"]]
+        R, Th, Tl = world_frame(scene, frame, s.group)
+        out["src_R"][i], out["src_Th"][i], out["src_Tl"][i] = R, Th, Tl
+        out["src_n"][i] = n
+        out["src_off"][i] = total
+        total += n * L
+        # flux per ray, per line
+        f = s.flux
+        if f.kind == "total":
+            per_line = np.full(L, f.value / L)
+        else:
+            sp = scene.spectra[f.spectrum]
+            vals = np.asarray(sp.on_lines, float) * widths
+            if sp.unit == "W/m2/nm":
+                if area is None:
+                    raise error(f.span, f"FLUX SPECTRUM {sp.name} is an irradiance (W/m2/nm), but an EMITTING "
+                                "POINT has no area", "use FLUX TOTAL, or a TABLE spectrum in W/nm")
+                vals = vals * area
+            per_line = vals
+        out["src_w"][i] = per_line / n
+        emitted += per_line
+    out["src_pts"] = np.ascontiguousarray(np.concatenate(pts)) if pts else np.zeros((0, 2))
+    out["src_pts_off"] = np.asarray(pts_off, np.int64) if pts_off else np.zeros(0, np.int64)
+    out["n_rays_total"] = int(total)
+    out["emitted_W"] = emitted
+    return out
+
+
+def _inv_rotate(R, v):
+    """R^T v for a row-major 3x3 R."""
+    return tuple(sum(R[3 * k + i] * v[k] for k in range(3)) for i in range(3))

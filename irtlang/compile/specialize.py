@@ -1,0 +1,62 @@
+"""Kernel specialization: one generated module per scene feature set.
+
+The trace kernel template (irtlang/kernels/trace_kernel.py) has ``F_*`` flags.  For a feature set we write a
+copy with the flags set into ``$NUMBA_CACHE_DIR/irt_kernels/`` (the file name carries the feature key and a
+hash of the kernels' sources, so a changed kernel never meets a stale cache) and import it; Numba compiles
+the flags as constants and caches the result with ``cache=True``, so the second run of a scene type starts
+warm.  A scene with only mirrors therefore compiles no refraction, mesh, media or record code.
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import os
+import re
+import sys
+from pathlib import Path
+
+from .pack import Features
+
+_FLAGS = {"conic": "F_CONIC", "quadric": "F_QUADRIC", "mesh": "F_MESH", "refract": "F_REFRACT",
+          "absorb_media": "F_ABSORB_MEDIA", "precise": "F_PRECISE", "records": "F_RECORDS", "history": "F_HISTORY"}
+_loaded: dict[str, object] = {}
+
+
+def _kernel_dir() -> Path:
+    base = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(os.path.expanduser("~"), ".cache", "irtlang", "numba")
+    d = Path(base) / "irt_kernels"
+    d.mkdir(parents=True, exist_ok=True)
+    return d
+
+
+def _sources_hash() -> str:
+    kdir = Path(__file__).resolve().parents[1] / "kernels"
+    h = hashlib.sha256()
+    for p in sorted(kdir.glob("*.py")):
+        h.update(p.read_bytes())
+    return h.hexdigest()[:12]
+
+
+def kernel_module(features: Features):
+    """The trace-kernel module specialized for `features` (generated and imported once per process)."""
+    key = features.key()
+    if key in _loaded:
+        return _loaded[key]
+    template = (Path(__file__).resolve().parents[1] / "kernels" / "trace_kernel.py").read_text()
+    text = template
+    for field, flag in _FLAGS.items():
+        text = re.sub(rf"^{flag} = (True|False)$", f"{flag} = {bool(getattr(features, field))}", text, flags=re.M)
+    # the copy lives outside the package: make its relative imports absolute
+    text = text.replace("from .", "from irtlang.kernels.")
+    name = f"irt_trace_{key}_{_sources_hash()}"
+    path = _kernel_dir() / f"{name}.py"
+    if not path.exists() or path.read_text() != text:
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    spec = importlib.util.spec_from_file_location(name, path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[name] = mod
+    spec.loader.exec_module(mod)
+    _loaded[key] = mod
+    return mod

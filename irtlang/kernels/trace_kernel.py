@@ -1,0 +1,556 @@
+"""The non-sequential Monte Carlo trace kernel (template).
+
+``irtlang.compile.specialize`` writes a copy of this module with the ``F_*`` feature flags set for one
+scene's feature set and imports it; Numba compiles the flags as constants, so a mirrors-only scene carries
+no refraction, mesh or record code (DESIGN.md, "Skip what a scene doesn't need").  Imported as it is, all
+features are on.
+
+Conventions
+-----------
+* Positions are double-double world coordinates (hi, lo) when ``F_PRECISE``; a surface sees the ray in its
+  own frame, computed as R^T ((p_hi - T_hi) + (p_lo - T_lo)) so an instrument 0.18 AU away is traced at
+  full precision.  Directions are plain doubles (full relative precision everywhere).
+* Random numbers: Philox4x32-10 keyed by the seed, counter (ray id, event, dim): a ray's path does not
+  depend on the thread count, the batch size or the order rays are traced.
+* Tallies are deterministic: rays are traced in chunks of ``CHUNK`` consecutive ids; each chunk has its own
+  ledger and its own deposit list, and chunks are reduced in id order after the parallel loop.
+* Interfaces choose reflection or transmission by Monte Carlo with probability R / (R + T) and keep the
+  weight w (R + T): the absorbed share w A is booked exactly, so the ledger closes per event.
+* Russian roulette below ``halt`` x the starting weight: survival probability w / (halt w0), survivors get
+  halt w0.  The booked HALTED flux is the killed weight minus the survivors' gain, so the ledger closes
+  exactly while the estimate stays unbiased.
+"""
+import math
+
+import numba
+import numpy as np
+
+from .bvh import hit_mesh
+from .geometry import (conic_normal, ellipsoid_normal, hit_conic, hit_ellipsoid, hit_plane, hit_sphere, hit_tube,
+                       in_annulus, in_disk, in_ellipse, in_rect, sphere_normal, tube_normal)
+from .optics import fresnel_unpolarized, refract
+from .rng import uniform2
+from .sampling import cosine_hemisphere, lambert_cone, onb, uniform_cone, uniform_disk, uniform_sphere
+
+# ---- features (rewritten by irtlang.compile.specialize) ----
+F_CONIC = True
+F_QUADRIC = True
+F_MESH = True
+F_REFRACT = True
+F_ABSORB_MEDIA = True
+F_PRECISE = True
+F_RECORDS = True
+F_HISTORY = True
+# ---- end of features ----
+
+CHUNK = 1024
+# ledger columns
+C_INC, C_REF, C_TRA, C_SCA, C_ABS = 0, 1, 2, 3, 4
+# record flags
+FL_SCATTERED, FL_TRANSMITTED, FL_REFLECTED, FL_HALTED, FL_ESCAPED, FL_LOST = 1, 2, 4, 8, 16, 32
+# event kinds in the history
+EV_R, EV_T, EV_S, EV_A = 1, 2, 3, 4
+EPS_SELF = 1e-9
+TWO_PI = 2.0 * math.pi
+_SPLIT = 134217729.0
+
+
+# ---------------------------------------------------------------------------------------------- double-double
+@numba.njit(cache=True)
+def _two_sum(a, b):
+    s = a + b
+    bb = s - a
+    return s, (a - (s - bb)) + (b - bb)
+
+
+@numba.njit(cache=True)
+def _two_prod(a, b):
+    p = a * b
+    if abs(a) > 1e150 or abs(b) > 1e150:
+        return p, 0.0
+    t = _SPLIT * a
+    ah = t - (t - a)
+    al = a - ah
+    t = _SPLIT * b
+    bh = t - (t - b)
+    bl = b - bh
+    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
+
+
+@numba.njit(cache=True)
+def _adv(h, l, t, d):
+    """(h + l) + t d in double-double."""
+    if not F_PRECISE:
+        return h + t * d, 0.0
+    p, pe = _two_prod(t, d)
+    s, se = _two_sum(h, p)
+    lo = l + pe + se
+    hi = s + lo
+    return hi, lo - (hi - s)
+
+
+@numba.njit(cache=True)
+def _sub(h, l, th, tl):
+    """(h + l) - (th + tl) as one double (the offset is small near the surface: no loss)."""
+    if not F_PRECISE:
+        return h - th
+    s, e = _two_sum(h, -th)
+    return s + (e + (l - tl))
+
+
+@numba.njit(cache=True)
+def _local(phx, phy, phz, plx, ply, plz, dx, dy, dz, R, Th, Tl, j):
+    qx = _sub(phx, plx, Th[j, 0], Tl[j, 0])
+    qy = _sub(phy, ply, Th[j, 1], Tl[j, 1])
+    qz = _sub(phz, plz, Th[j, 2], Tl[j, 2])
+    r = R[j]
+    return (r[0] * qx + r[3] * qy + r[6] * qz, r[1] * qx + r[4] * qy + r[7] * qz, r[2] * qx + r[5] * qy + r[8] * qz,
+            r[0] * dx + r[3] * dy + r[6] * dz, r[1] * dx + r[4] * dy + r[7] * dz, r[2] * dx + r[5] * dy + r[8] * dz)
+
+
+@numba.njit(cache=True)
+def _rot(R, j, x, y, z):
+    r = R[j]
+    return r[0] * x + r[1] * y + r[2] * z, r[3] * x + r[4] * y + r[5] * z, r[6] * x + r[7] * y + r[8] * z
+
+
+@numba.njit(cache=True)
+def _aperture_ok(kind, ap, j, x, y):
+    if kind == 0:
+        return True
+    if kind == 1:
+        return in_rect(x, y, ap[j, 0], ap[j, 1])
+    if kind == 2:
+        return in_disk(x, y, ap[j, 0])
+    if kind == 3:
+        return in_annulus(x, y, ap[j, 0], ap[j, 1])
+    return in_ellipse(x, y, ap[j, 0], ap[j, 1])
+
+
+# ---------------------------------------------------------------------------------------------- intersection
+@numba.njit(cache=True)
+def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, s_kind, s_par, s_asph, s_nasph, s_ap_kind, s_ap, s_R, s_Th,
+             s_Tl, s_size, s_mesh, m_node_off, m_node_n, m_tri_off, m_tri_n, bmin, bmax, child, count, tris, ids):
+    """Nearest surface hit: (t, surface, lx, ly, lz, face)."""
+    best_t = np.inf
+    best_j = -1
+    blx = 0.0
+    bly = 0.0
+    blz = 0.0
+    bface = -1
+    for j in range(s_kind.shape[0]):
+        ox, oy, oz, ldx, ldy, ldz = _local(phx, phy, phz, plx, ply, plz, dx, dy, dz, s_R, s_Th, s_Tl, j)
+        k = s_kind[j]
+        tmin = EPS_SELF * max(s_size[j], abs(ox), abs(oy), abs(oz))
+        if F_MESH and k == 5:
+            m = s_mesh[j]
+            a0 = m_node_off[m]
+            a1 = a0 + m_node_n[m]
+            b0 = m_tri_off[m]
+            b1 = b0 + m_tri_n[m]
+            t, face, _u, _v = hit_mesh(ox, oy, oz, ldx, ldy, ldz, tmin, bmin[a0:a1], bmax[a0:a1], child[a0:a1],
+                                       count[a0:a1], tris[b0:b1], ids[b0:b1])
+            if t < best_t:
+                best_t = t
+                best_j = j
+                blx = ox + t * ldx
+                bly = oy + t * ldy
+                blz = oz + t * ldz
+                bface = b0 + face if face >= 0 else -1
+            continue
+        if k == 0:
+            t1, t2 = hit_plane(ox, oy, oz, ldx, ldy, ldz)
+        elif F_CONIC and k == 1:
+            t1, t2 = hit_conic(ox, oy, oz, ldx, ldy, ldz, s_par[j, 0], s_par[j, 1], s_asph[j, :s_nasph[j]])
+        elif F_QUADRIC and k == 2:
+            t1, t2 = hit_sphere(ox, oy, oz, ldx, ldy, ldz, s_par[j, 0])
+        elif F_QUADRIC and k == 3:
+            t1, t2 = hit_ellipsoid(ox, oy, oz, ldx, ldy, ldz, s_par[j, 0], s_par[j, 1], s_par[j, 2])
+        elif F_QUADRIC and k == 4:
+            t1, t2 = hit_tube(ox, oy, oz, ldx, ldy, ldz, s_par[j, 0], s_par[j, 1], s_par[j, 2], s_par[j, 3])
+        else:
+            continue
+        for t in (t1, t2):
+            if t > tmin and t < best_t:
+                x = ox + t * ldx
+                y = oy + t * ldy
+                if _aperture_ok(s_ap_kind[j], s_ap, j, x, y):
+                    best_t = t
+                    best_j = j
+                    blx = x
+                    bly = y
+                    blz = oz + t * ldz
+                    break
+    return best_t, best_j, blx, bly, blz, bface
+
+
+@numba.njit(cache=True)
+def _normal(j, k, lx, ly, lz, face, s_par, s_asph, s_nasph, s_R, bvh_fn):
+    """World unit normal of surface j at local point (lx, ly, lz)."""
+    if k == 0:
+        nx, ny, nz = 0.0, 0.0, 1.0
+    elif F_CONIC and k == 1:
+        nx, ny, nz = conic_normal(lx, ly, s_par[j, 0], s_par[j, 1], s_asph[j, :s_nasph[j]])
+    elif F_QUADRIC and k == 2:
+        nx, ny, nz = sphere_normal(lx, ly, lz)
+    elif F_QUADRIC and k == 3:
+        nx, ny, nz = ellipsoid_normal(lx, ly, lz, s_par[j, 0], s_par[j, 1], s_par[j, 2])
+    elif F_QUADRIC and k == 4:
+        nx, ny, nz = tube_normal(lx, ly, lz, s_par[j, 0], s_par[j, 1], s_par[j, 2], s_par[j, 3])
+    elif F_MESH and k == 5 and face >= 0:
+        nx, ny, nz = bvh_fn[face, 0], bvh_fn[face, 1], bvh_fn[face, 2]
+    else:
+        nx, ny, nz = 0.0, 0.0, 1.0
+    return _rot(s_R, j, nx, ny, nz)
+
+
+# ---------------------------------------------------------------------------------------------- sources
+@numba.njit(cache=True)
+def _cone_to(px, py, pz, cx, cy, cz, r):
+    """Axis and cos of the half-angle of the cone from p that holds the sphere (c, r); cos = -1: all around."""
+    ax = cx - px
+    ay = cy - py
+    az = cz - pz
+    d = math.sqrt(ax * ax + ay * ay + az * az)
+    if d <= r or d == 0.0:
+        return 0.0, 0.0, 1.0, -1.0
+    s = r / d
+    return ax / d, ay / d, az / d, math.sqrt(max(0.0, 1.0 - s * s))
+
+
+@numba.njit(cache=True)
+def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random, src_toward,
+         src_pts, src_pts_off, o_bc, o_br):
+    """Ray i: (source, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w).  Ids past `total` start another
+    pass over the sources (TRACE UNTIL ERROR) with fresh random numbers."""
+    ii = i % total
+    s = 0
+    while s + 1 < src_off.shape[0] and ii >= src_off[s + 1]:
+        s += 1
+    j = ii - src_off[s]
+    n = src_n[s]
+    line = j // n
+    q = j - line * n
+    w = src_w[s, line]
+    kind = src_kind[s]
+    par = src_par[s]
+    u0, u1 = uniform2(seed, i, 0, 0)
+    u2, u3 = uniform2(seed, i, 0, 1)
+    # position in the source frame
+    lx = 0.0
+    ly = 0.0
+    lz = 0.0
+    ldx = 0.0
+    ldy = 0.0
+    ldz = 1.0
+    if kind == 0:  # GRID RECT
+        nx = int(par[4])
+        ny = int(par[5])
+        if src_random[s] == 1:
+            fx = u0
+            fy = u1
+        else:
+            iy = q // nx
+            ix = q - iy * nx
+            fx = (ix + 0.5) / nx
+            fy = (iy + 0.5) / ny
+        lx = par[0] + (par[1] - par[0]) * fx
+        ly = par[2] + (par[3] - par[2]) * fy
+    elif kind == 1:  # GRID DISK
+        if src_random[s] == 1:
+            x, y = uniform_disk(u0, u1)
+            lx = par[0] * x
+            ly = par[0] * y
+        else:
+            k = src_pts_off[s] + q
+            lx = src_pts[k, 0]
+            ly = src_pts[k, 1]
+    elif kind == 2:  # EMITTING SPHERE: a point on the sphere, its outward normal
+        x, y, z = uniform_sphere(u0, u1)
+        lx = par[0] * x
+        ly = par[0] * y
+        lz = par[0] * z
+        ldx, ldy, ldz = x, y, z
+    elif kind == 3:  # EMITTING DISK
+        x, y = uniform_disk(u0, u1)
+        lx = par[0] * x
+        ly = par[0] * y
+    # to world
+    R = src_R[s]
+    wx = R[0] * lx + R[1] * ly + R[2] * lz
+    wy = R[3] * lx + R[4] * ly + R[5] * lz
+    wz = R[6] * lx + R[7] * ly + R[8] * lz
+    phx, plx = _two_sum(src_Th[s, 0], wx)
+    phy, ply = _two_sum(src_Th[s, 1], wy)
+    phz, plz = _two_sum(src_Th[s, 2], wz)
+    plx += src_Tl[s, 0]
+    ply += src_Tl[s, 1]
+    plz += src_Tl[s, 2]
+    dk = src_dir[s]
+    if dk == 0:  # collimated (given in the source frame)
+        ldx, ldy, ldz = par[6], par[7], par[8]
+    elif dk == 1 or dk == 2:  # from / to a point
+        vx = lx - par[6]
+        vy = ly - par[7]
+        vz = lz - par[8]
+        if dk == 2:
+            vx, vy, vz = -vx, -vy, -vz
+        m = math.sqrt(vx * vx + vy * vy + vz * vz)
+        if m == 0.0:
+            ldx, ldy, ldz = 0.0, 0.0, 1.0
+        else:
+            ldx, ldy, ldz = vx / m, vy / m, vz / m
+    elif dk == 3:  # field angles
+        tx = math.tan(par[6])
+        ty = math.tan(par[7])
+        m = math.sqrt(tx * tx + ty * ty + 1.0)
+        ldx, ldy, ldz = tx / m, ty / m, 1.0 / m
+    else:  # Lambertian emitter (sphere, disk) or isotropic point
+        if kind == 4:
+            ax, ay, az = par[2], par[3], par[4]
+        else:
+            ax, ay, az = ldx, ldy, ldz
+        nwx = R[0] * ax + R[1] * ay + R[2] * az
+        nwy = R[3] * ax + R[4] * ay + R[5] * az
+        nwz = R[6] * ax + R[7] * ay + R[8] * az
+        tgt = src_toward[s]
+        if tgt >= 0:
+            # sample the cone that holds the target's bounding sphere; exact weight = pdf_emitter / pdf_cone
+            cx = o_bc[tgt, 0] - src_Th[s, 0] - src_Tl[s, 0]
+            cy = o_bc[tgt, 1] - src_Th[s, 1] - src_Tl[s, 1]
+            cz = o_bc[tgt, 2] - src_Th[s, 2] - src_Tl[s, 2]
+            kx, ky, kz, cmax = _cone_to(wx, wy, wz, cx, cy, cz, o_br[tgt])
+            x, y, z = uniform_cone(u2, u3, cmax)
+            t1x, t1y, t1z, t2x, t2y, t2z = onb(kx, ky, kz)
+            dwx = x * t1x + y * t2x + z * kx
+            dwy = x * t1y + y * t2y + z * ky
+            dwz = x * t1z + y * t2z + z * kz
+            omega = TWO_PI * (1.0 - cmax)
+            c = dwx * nwx + dwy * nwy + dwz * nwz
+            if kind == 4:
+                cmin = math.cos(par[1])
+                if c < cmin:
+                    w = 0.0
+                else:
+                    w *= omega / (TWO_PI * (1.0 - cmin))
+            else:
+                climit = math.cos(par[1]) if kind == 3 else 0.0
+                if c <= climit:
+                    w = 0.0
+                else:
+                    w *= c * omega / math.pi
+            return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w
+        if kind == 4:
+            x, y, z = uniform_cone(u2, u3, math.cos(par[1]))
+        elif kind == 3 and par[1] < 1.5707963267948966:
+            sm = math.sin(par[1])
+            x, y, z = lambert_cone(u2, u3, sm)
+            w *= sm * sm
+        else:
+            x, y, z = cosine_hemisphere(u2, u3)
+        t1x, t1y, t1z, t2x, t2y, t2z = onb(nwx, nwy, nwz)
+        dwx = x * t1x + y * t2x + z * nwx
+        dwy = x * t1y + y * t2y + z * nwy
+        dwz = x * t1z + y * t2z + z * nwz
+        return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w
+    dwx = R[0] * ldx + R[1] * ldy + R[2] * ldz
+    dwy = R[3] * ldx + R[4] * ldy + R[5] * ldz
+    dwz = R[6] * ldx + R[7] * ldy + R[8] * ldz
+    m = math.sqrt(dwx * dwx + dwy * dwy + dwz * dwz)
+    return s, line, phx, phy, phz, plx, ply, plz, dwx / m, dwy / m, dwz / m, w
+
+
+# ---------------------------------------------------------------------------------------------- the trace
+@numba.njit(cache=True, parallel=True)
+def trace_batch(first, n, total, seed, level, halt,
+                s_obj, s_kind, s_par, s_asph, s_nasph, s_ap_kind, s_ap, s_R, s_Th, s_Tl, s_size, s_mesh,
+                m_node_off, m_node_n, m_tri_off, m_tri_n, bmin, bmax, child, count, tris, ids, bvh_fn,
+                o_itf, o_coat, o_back, o_front, o_det, o_bc, o_br,
+                med_n, med_alpha, med_row, coat_R, coat_T,
+                d_nx, d_ny, d_ext, d_off,
+                src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random, src_toward,
+                src_pts, src_pts_off,
+                led, inc_sq, dep_idx, dep_w, dep_n, rec_pos, rec_dir, rec_w, rec_line, rec_src, rec_obj, rec_ev,
+                rec_flags, rec_hist):
+    """Trace rays first .. first+n-1.  Per chunk c: led[c] (rows, 5, L), inc_sq[c] (rows, L), and deposits
+    dep_idx/dep_w[c, :dep_n[c]] (dep_n[c] = -1 when the chunk overflowed its deposit list).
+    Rows: objects, absorbing media, then EMITTED, ESCAPED, HALTED, LOST (last four)."""
+    nrows = led.shape[1]
+    r_emit = nrows - 4
+    r_esc = nrows - 3
+    r_halt = nrows - 2
+    r_lost = nrows - 1
+    nchunks = (n + CHUNK - 1) // CHUNK
+    cap = dep_idx.shape[1]
+    H = rec_hist.shape[1]
+    for c in numba.prange(nchunks):
+        ndep = 0
+        for ii in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
+            i = first + ii
+            s, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w = _gen(
+                i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random,
+                src_toward, src_pts, src_pts_off, o_bc, o_br)
+            led[c, r_emit, C_INC, line] += w
+            w0 = w
+            flags = 0
+            ev = 0
+            last = -1
+            hx = phx + plx
+            hy = phy + ply
+            hz = phz + plz
+            adx = dx
+            ady = dy
+            adz = dz
+            aw = w
+            if F_HISTORY:
+                for h in range(H):
+                    rec_hist[ii, h] = -1
+            if w == 0.0:
+                flags |= FL_ESCAPED
+            while w > 0.0:
+                if ev >= level:
+                    led[c, r_halt, C_ABS, line] += w
+                    flags |= FL_HALTED
+                    break
+                t, j, lx, ly, lz, face = _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, s_kind, s_par, s_asph,
+                                                  s_nasph, s_ap_kind, s_ap, s_R, s_Th, s_Tl, s_size, s_mesh,
+                                                  m_node_off, m_node_n, m_tri_off, m_tri_n, bmin, bmax, child,
+                                                  count, tris, ids)
+                if j < 0:
+                    led[c, r_esc, C_ABS, line] += w
+                    flags |= FL_ESCAPED
+                    break
+                k = s_kind[j]
+                nwx, nwy, nwz = _normal(j, k, lx, ly, lz, face, s_par, s_asph, s_nasph, s_R, bvh_fn)
+                o = s_obj[j]
+                ci = -(dx * nwx + dy * nwy + dz * nwz)
+                if not (math.isfinite(t) and math.isfinite(ci)):
+                    led[c, r_lost, C_ABS, line] += w
+                    flags |= FL_LOST
+                    break
+                front = ci > 0.0            # arriving on the side the normal points to
+                it = o_itf[o]
+                m1 = o_front[o] if front else o_back[o]
+                m2 = o_back[o] if front else o_front[o]
+                if F_ABSORB_MEDIA and it >= 2:
+                    a = med_alpha[m1, line]
+                    if a > 0.0:
+                        keep = math.exp(-a * t)
+                        led[c, med_row[m1], C_INC, line] += w
+                        led[c, med_row[m1], C_ABS, line] += w * (1.0 - keep)
+                        led[c, med_row[m1], C_TRA, line] += w * keep
+                        w *= keep
+                phx, plx = _adv(phx, plx, t, dx)
+                phy, ply = _adv(phy, ply, t, dy)
+                phz, plz = _adv(phz, plz, t, dz)
+                if not (math.isfinite(phx) and math.isfinite(phy) and math.isfinite(phz)):
+                    led[c, r_lost, C_ABS, line] += w
+                    flags |= FL_LOST
+                    break
+                led[c, o, C_INC, line] += w
+                inc_sq[c, o, line] += w * w
+                hx = phx + plx
+                hy = phy + ply
+                hz = phz + plz
+                adx = dx
+                ady = dy
+                adz = dz
+                aw = w
+                last = o
+                dd = o_det[o]
+                if dd >= 0:
+                    x0 = d_ext[dd, 0]
+                    x1 = d_ext[dd, 1]
+                    y0 = d_ext[dd, 2]
+                    y1 = d_ext[dd, 3]
+                    if lx >= x0 and lx <= x1 and ly >= y0 and ly <= y1:
+                        nx = d_nx[dd]
+                        ny = d_ny[dd]
+                        ix = min(nx - 1, int((lx - x0) / (x1 - x0) * nx))
+                        iy = min(ny - 1, int((ly - y0) / (y1 - y0) * ny))
+                        if ndep < cap:
+                            dep_idx[c, ndep] = d_off[dd] + (line * ny + iy) * nx + ix
+                            dep_w[c, ndep] = w
+                        ndep += 1
+                # the interface: R, T, A
+                if it == 0:
+                    R = 0.0
+                    T = 0.0
+                elif it == 1:
+                    R = 1.0
+                    T = 0.0
+                elif it == 2:
+                    R = coat_R[o_coat[o], line]
+                    T = coat_T[o_coat[o], line]
+                else:
+                    n1 = med_n[m1, line]
+                    n2 = med_n[m2, line]
+                    R = fresnel_unpolarized(abs(ci), n1, n2)
+                    T = 1.0 - R
+                A = 1.0 - R - T
+                led[c, o, C_ABS, line] += w * A
+                w *= (R + T)
+                ev += 1
+                evkind = EV_A
+                if w > 0.0:
+                    u, _u = uniform2(seed, i, ev, 0)
+                    if u * (R + T) < R:
+                        led[c, o, C_REF, line] += w
+                        dx = dx + 2.0 * ci * nwx
+                        dy = dy + 2.0 * ci * nwy
+                        dz = dz + 2.0 * ci * nwz
+                        flags |= FL_REFLECTED
+                        evkind = EV_R
+                    else:
+                        led[c, o, C_TRA, line] += w
+                        flags |= FL_TRANSMITTED
+                        evkind = EV_T
+                        if F_REFRACT and it == 3:
+                            n1 = med_n[m1, line]
+                            n2 = med_n[m2, line]
+                            if n1 != n2:
+                                dx, dy, dz, _tir = refract(dx, dy, dz, nwx, nwy, nwz, n1, n2)
+                    m = math.sqrt(dx * dx + dy * dy + dz * dz)
+                    dx /= m
+                    dy /= m
+                    dz /= m
+                if F_HISTORY and ev - 1 < H:
+                    rec_hist[ii, ev - 1] = o * 8 + evkind
+                # Russian roulette
+                if w > 0.0 and w < halt * w0:
+                    ur, _u = uniform2(seed, i, ev, 1)
+                    p = w / (halt * w0)
+                    if ur < p:
+                        led[c, r_halt, C_ABS, line] -= halt * w0 - w
+                        w = halt * w0
+                    else:
+                        led[c, r_halt, C_ABS, line] += w
+                        w = 0.0
+                        flags |= FL_HALTED
+            if F_RECORDS:
+                rec_pos[ii, 0] = hx
+                rec_pos[ii, 1] = hy
+                rec_pos[ii, 2] = hz
+                rec_dir[ii, 0] = adx
+                rec_dir[ii, 1] = ady
+                rec_dir[ii, 2] = adz
+                rec_w[ii] = aw
+                rec_line[ii] = line
+                rec_src[ii] = s
+                rec_obj[ii] = last
+                rec_ev[ii] = ev
+                rec_flags[ii] = flags
+        dep_n[c] = ndep if ndep <= cap else -1
+
+
+@numba.njit(cache=True)
+def reduce_batch(led, inc_sq, dep_idx, dep_w, dep_n, ledger, ledger_sq, img, img_sq):
+    """Add a batch's chunk tallies in chunk order (deterministic for any thread count)."""
+    for c in range(led.shape[0]):
+        ledger += led[c]
+        ledger_sq += inc_sq[c]
+        for q in range(dep_n[c]):
+            k = dep_idx[c, q]
+            w = dep_w[c, q]
+            img[k] += w
+            img_sq[k] += w * w

@@ -1,0 +1,209 @@
+"""The trace driver: pack the scene, pick the specialized kernel, run batches, reduce tallies.
+
+Memory stays flat in the number of rays for image runs: detector images and the ledger are sums; per-ray
+records are kept only when a later command needs them (SPOTS, FOCUS, STATS POSITION/DIRECTION, SAVE RAYS,
+SELECT).  Results are bitwise identical for any thread count and batch size (see the kernel's docstring).
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .compile.pack import Packed, pack
+from .compile.specialize import kernel_module
+
+HISTORY_CAP = 16
+
+
+@dataclass
+class TraceResult:
+    packed: Packed
+    ledger: np.ndarray          # (rows, 5, L): incident, reflected, transmitted, scattered, absorbed
+    ledger_sq: np.ndarray       # (rows, L): sum of squared incident fluxes
+    images: dict                # detector name -> (sum (L, ny, nx), sum2)
+    records: dict | None        # per-ray final states (see docs/rayfile.md)
+    n_traced: int               # source rays traced
+    seed: int
+    interrupted: bool = False
+    passes: int = 1
+
+    @property
+    def rows(self) -> list:
+        return self.packed.row_names
+
+    def flux_on(self, obj_index: int) -> tuple[float, float]:
+        """Total incident flux on an object and its Monte Carlo standard error."""
+        s1 = float(self.ledger[obj_index, 0].sum())
+        s2 = float(self.ledger_sq[obj_index].sum())
+        return s1, standard_error(s1, s2, self.n_traced)
+
+
+def standard_error(s1, s2, n):
+    """Standard error of a sum of n independent per-ray contributions with sums s1 and s2 (squares)."""
+    if n <= 1:
+        return 0.0
+    var = np.maximum(np.asarray(s2) / n - (np.asarray(s1) / n) ** 2, 0.0)
+    return np.sqrt(var * n * n / (n - 1))
+
+
+def _object_bounds(pk: Packed) -> tuple[np.ndarray, np.ndarray]:
+    """World bounding sphere of each object (for TOWARD); radius inf for unbounded surfaces."""
+    nO = len(pk.object_names)
+    spheres = [[] for _ in range(nO)]
+    for j in range(len(pk.s_kind)):
+        k, p, a = pk.s_kind[j], pk.s_par[j], pk.s_ap[j]
+        if k == 0 or k == 1:
+            r = {0: np.inf, 1: a[0] if pk.s_ap_kind[j] == 2 else math.hypot(a[0], a[1]) if pk.s_ap_kind[j] in (1, 4)
+                 else a[1]}.get(int(pk.s_ap_kind[j]) and 1, np.inf)
+            if pk.s_ap_kind[j] == 0:
+                r = np.inf
+            c = np.zeros(3)
+            if k == 1 and np.isfinite(r):
+                cc, kk = p[0], p[1]
+                arg = 1 - (1 + kk) * cc * cc * r * r
+                sag = cc * r * r / (1 + math.sqrt(max(arg, 0.0)))
+                c = np.array([0.0, 0.0, sag / 2])
+                r = math.hypot(r, sag / 2)
+        elif k == 2:
+            c, r = np.zeros(3), p[0]
+        elif k == 3:
+            c, r = np.zeros(3), max(p[:3])
+        elif k == 4:
+            c, r = np.array([0.0, 0.0, 0.5 * (p[0] + p[2])]), math.hypot(max(p[1], p[3]), 0.5 * abs(p[2] - p[0]))
+        else:
+            m = pk.s_mesh[j]
+            tris = pk.bvh_tris[pk.m_tri_off[m]:pk.m_tri_off[m] + pk.m_tri_n[m]].reshape(-1, 3)
+            lo, hi = tris.min(0), tris.max(0)
+            c, r = 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
+        R = pk.s_R[j].reshape(3, 3)
+        wc = R @ c + pk.s_Th[j] + pk.s_Tl[j]
+        spheres[pk.s_obj[j]].append((wc, r))
+    bc = np.zeros((nO, 3))
+    br = np.full(nO, np.inf)
+    for o, sph in enumerate(spheres):
+        if not sph or any(not np.isfinite(r) for _, r in sph):
+            continue
+        cs = np.array([c for c, _ in sph])
+        centre = cs.mean(0)
+        bc[o] = centre
+        br[o] = max(float(np.linalg.norm(c - centre)) + r for c, r in sph)
+    return bc, br
+
+
+class Progress:
+    """A one-line progress display on a terminal: rays traced, rate, time left."""
+
+    def __init__(self, total: int, enabled: bool | None = None, stream=None):
+        self.stream = stream or sys.stderr
+        self.enabled = self.stream.isatty() if enabled is None else enabled
+        self.total = total
+        self.t0 = time.perf_counter()
+        self.last = 0.0
+
+    def update(self, done: int, force: bool = False) -> None:
+        if not self.enabled:
+            return
+        now = time.perf_counter()
+        if not force and now - self.last < 0.2:
+            return
+        self.last = now
+        dt = max(now - self.t0, 1e-9)
+        rate = done / dt
+        left = (self.total - done) / rate if rate > 0 and self.total > done else 0.0
+        self.stream.write(f"\rirt: traced {done:,}/{self.total:,} rays  {rate / 1e6:6.2f} Mrays/s  "
+                          f"{left:6.1f} s left ")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.enabled:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def run_trace(scene, *, seed: int, level: int, halt: float, until_error: float | None = None,
+              until_target: str | None = None, records: bool = False, history: bool = False,
+              batch: int = 1 << 16, max_passes: int = 1000, progress: Progress | None = None) -> TraceResult:
+    pk = pack(scene, records=records, history=history)
+    mod = kernel_module(pk.features)
+    L = len(pk.lines_nm)
+    rows = pk.n_rows
+    total = pk.n_rays_total
+    o_bc, o_br = _object_bounds(pk)
+    d_sizes = [L * int(ny) * int(nx) for nx, ny in zip(pk.d_nx, pk.d_ny)]
+    d_off = np.concatenate([[0], np.cumsum(d_sizes)[:-1]]).astype(np.int64) if d_sizes else np.zeros(0, np.int64)
+    img = np.zeros(int(sum(d_sizes)))
+    img_sq = np.zeros_like(img)
+    ledger = np.zeros((rows, 5, L))
+    ledger_sq = np.zeros((rows, L))
+    H = min(level, HISTORY_CAP) if history else 0
+    chunk = mod.CHUNK
+    rec_parts: list[dict] = []
+    target = list(scene.objects).index(until_target) if until_target else None
+    prog = progress or Progress(total)
+    done = 0
+    passes = 0
+    interrupted = False
+    cap = 2 * chunk
+    try:
+        while True:
+            first_of_pass = passes * total
+            start = 0
+            while start < total:
+                n = min(batch, total - start)
+                nch = (n + chunk - 1) // chunk
+                while True:
+                    led = np.zeros((nch, rows, 5, L))
+                    inc_sq = np.zeros((nch, rows, L))
+                    dep_idx = np.zeros((nch, cap), np.int64)
+                    dep_w = np.zeros((nch, cap))
+                    dep_n = np.zeros(nch, np.int64)
+                    nr = n if records else 1
+                    rec = dict(position=np.zeros((nr, 3)), direction=np.zeros((nr, 3)), flux=np.zeros(nr),
+                               line=np.zeros(nr, np.int32), source=np.zeros(nr, np.int32),
+                               object=np.zeros(nr, np.int32), events=np.zeros(nr, np.int32),
+                               flags=np.zeros(nr, np.uint32), history=np.zeros((nr if history else 1, H), np.int32))
+                    mod.trace_batch(first_of_pass + start, n, total, seed, level, halt,
+                                    pk.s_obj, pk.s_kind, pk.s_par, pk.s_asph, pk.s_nasph, pk.s_ap_kind, pk.s_ap,
+                                    pk.s_R, pk.s_Th, pk.s_Tl, pk.s_size, pk.s_mesh, pk.m_node_off, pk.m_node_n,
+                                    pk.m_tri_off, pk.m_tri_n, pk.bvh_bmin, pk.bvh_bmax, pk.bvh_child, pk.bvh_count,
+                                    pk.bvh_tris, pk.bvh_ids, pk.bvh_fn, pk.o_itf, pk.o_coat, pk.o_back, pk.o_front,
+                                    pk.o_det, o_bc, o_br, pk.med_n, pk.med_alpha, pk.med_row, pk.coat_R, pk.coat_T,
+                                    pk.d_nx, pk.d_ny, pk.d_ext, d_off, pk.src_kind, pk.src_dir, pk.src_par,
+                                    pk.src_R, pk.src_Th, pk.src_Tl, pk.src_n, pk.src_off, pk.src_w,
+                                    pk.src_random, pk.src_toward, pk.src_pts, pk.src_pts_off, led, inc_sq,
+                                    dep_idx, dep_w, dep_n, rec["position"], rec["direction"], rec["flux"],
+                                    rec["line"], rec["source"], rec["object"], rec["events"], rec["flags"],
+                                    rec["history"])
+                    if np.all(dep_n >= 0):
+                        break
+                    cap *= 4   # a chunk overflowed its deposit list: trace the batch again with more room
+                mod.reduce_batch(led, inc_sq, dep_idx, dep_w, dep_n, ledger, ledger_sq, img, img_sq)
+                if records:
+                    rec_parts.append(rec)
+                start += n
+                done += n
+                prog.update(done)
+            passes += 1
+            if until_error is None or target is None or passes >= max_passes:
+                break
+            s1 = ledger[target, 0].sum()
+            se = standard_error(s1, ledger_sq[target].sum(), done)
+            if s1 > 0 and se / s1 <= until_error:
+                break
+    except KeyboardInterrupt:
+        interrupted = True
+    prog.update(done, force=True)
+    prog.close()
+    images = {}
+    for d, name in enumerate(pk.detector_names):
+        shape = (L, int(pk.d_ny[d]), int(pk.d_nx[d]))
+        a, b = int(d_off[d]), int(d_off[d]) + d_sizes[d]
+        images[name] = (img[a:b].reshape(shape), img_sq[a:b].reshape(shape))
+    recs = None
+    if records and rec_parts:
+        recs = {k: np.concatenate([r[k] for r in rec_parts]) for k in rec_parts[0]}
+    return TraceResult(pk, ledger, ledger_sq, images, recs, done, seed, interrupted, passes)
