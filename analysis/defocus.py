@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 from scipy import ndimage
-from scipy.sparse.linalg import LinearOperator, cg
+from scipy.sparse.linalg import LinearOperator, cg, spilu
 
 from ._common import AnalysisError, as_image, check_finite, positive, same_shape
 
@@ -91,8 +91,7 @@ def _log_peak(lm, la, lb):
 
 
 def sparse_defocus_map(image, *, sigma0=2.0, gradient_sigma=1.5, pixel_variance=1.0 / 12.0, edges=None,
-                       edge_sigma=1.0, low_threshold=0.1, high_threshold=0.2, max_sigma=20.0,
-                       max_turn_deg=None):
+                       edge_sigma=1.0, low_threshold=0.1, high_threshold=0.2, max_sigma=20.0):
     """Blur sigma at the edges of an image, by the Zhuo & Sim (2011) re-blur gradient ratio.
 
     Signature: ``sparse_defocus_map(image, *, sigma0=2.0, gradient_sigma=1.5, pixel_variance=1/12, edges=None,
@@ -102,9 +101,12 @@ def sparse_defocus_map(image, *, sigma0=2.0, gradient_sigma=1.5, pixel_variance=
     re-blurred by sigma0 it becomes A / sqrt(2 pi (sigma^2 + sigma0^2)); the ratio R of the two gives
     ``sigma = sigma0 / sqrt(R^2 - 1)``.
 
-    ``sigma0`` defaults to 2 px (Zhuo & Sim used 1): ``R^2 - 1 = sigma0^2 / sigma_t^2`` shrinks like 1/sigma^2,
-    and noise biases the gradient magnitudes (upwards, more in the less smoothed one), so a larger sigma0 keeps
-    4 px blur within about 1 % at SNR 100 where sigma0 = 1 is off by about 6 %.
+    Defaults: ``sigma0`` = 2 px (Zhuo & Sim used 1) and ``gradient_sigma`` = 1.5 px. The ratio loses sensitivity
+    as ``R^2 - 1 = sigma0^2 / sigma_t^2`` shrinks, and noise biases the estimate low; on a straight edge at SNR 100
+    (contrast over noise sigma), 10 noise draws give mean errors for 4 px blur of -1.0 % with these defaults,
+    -1.9 % with sigma0 = 1, and -7.6 % with sigma0 = 1 and gradient_sigma = 1. Where the step changes along the
+    edge within about 2 sigma_t (corners, junctions of patches) every gradient-ratio estimate is biased, mostly
+    low: a few per cent on mosaics of 24 px tiles, about 5 % on 16 px tiles.
 
     Implementation: edges from :func:`edge_map` (``edge_sigma``, ``low_threshold``, ``high_threshold``; or a given
     boolean ``edges``). Gradients are Gaussian derivatives at ``gradient_sigma`` (the image) and at
@@ -131,11 +133,8 @@ def sparse_defocus_map(image, *, sigma0=2.0, gradient_sigma=1.5, pixel_variance=
         same_shape(edges, img, ("edges", "image"))
     gx, gy = gradient(img, sg)
     m1 = np.hypot(gx, gy)
-    gx2, gy2 = gradient(img, np.hypot(sg, s0))
-    m2 = np.hypot(gx2, gy2)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cos_turn = (gx * gx2 + gy * gy2) / (m1 * m2)
-    jj, ii = np.nonzero(edges & (m1 > 0) & (m2 > 0) & (cos_turn >= np.cos(np.radians(max_turn_deg))))
+    m2 = np.hypot(*gradient(img, np.hypot(sg, s0)))
+    jj, ii = np.nonzero(edges & (m1 > 0) & (m2 > 0))
     nx, ny = gx[jj, ii] / m1[jj, ii], gy[jj, ii] / m1[jj, ii]
 
     def peak(mag):
@@ -233,9 +232,11 @@ def defocus_map(image, *, method="matting", sigma0=2.0, gradient_sigma=1.5, pixe
          (:func:`matting_laplacian`, ``eps``, ``window_radius`` = 1 for 3 x 3 windows) and D the diagonal
          edge mask; the linear system ``(L + lam D) d = lam D s`` is solved by conjugate gradients
          (``scipy.sparse.linalg.cg``, relative tolerance ``tol``, ``maxiter``) preconditioned by the diagonal
-         (``preconditioner="jacobi"``, or None), started from the nearest-edge fill. ``lam`` defaults to 1
-         (Zhuo & Sim used 0.001 on colour images): for a grey-level guide every global affine function of the
-         intensity costs nothing under L, so a weak data term lets the map flatten towards one value.
+         (``preconditioner="jacobi"``; ``"ilu"``: incomplete LU, ``scipy.sparse.linalg.spilu`` with drop
+         tolerance 1e-4, few iterations but a costly factorisation; or None), started from the nearest-edge
+         fill. ``lam`` defaults to 1 (Zhuo & Sim used 0.001 on colour images): for a grey-level guide every
+         global affine function of the intensity costs nothing under L, so a weak data term lets the map
+         flatten towards one value.
        - ``"guided"`` (fast): nearest-edge fill smoothed by the guided filter
          (``cv2.ximgproc.guidedFilter``, ``guided_radius`` px, ``guided_eps``) guided by the normalized image.
        - ``"fgs"`` (fast): the fast global smoother (``cv2.ximgproc.fastGlobalSmootherFilter``, ``fgs_lambda``,
@@ -253,7 +254,8 @@ def defocus_map(image, *, method="matting", sigma0=2.0, gradient_sigma=1.5, pixe
     if known.sum() < 1:
         raise AnalysisError("no usable edge found for the defocus estimate: lower the edge thresholds")
     guide = _normalized(img)
-    refined = _masked_joint_bilateral(sparse, known, guide, int(jbf_radius), positive(jbf_sigma_space, "jbf_sigma_space"),
+    refined = _masked_joint_bilateral(sparse, known, guide, int(jbf_radius),
+                                      positive(jbf_sigma_space, "jbf_sigma_space"),
                                       positive(jbf_sigma_range, "jbf_sigma_range"))
     refined = np.where(known, refined, 0.0)
     fill = _nearest_fill(refined, known)
@@ -266,8 +268,11 @@ def defocus_map(image, *, method="matting", sigma0=2.0, gradient_sigma=1.5, pixe
         if preconditioner == "jacobi":
             inv_diag = 1.0 / a.diagonal()
             m = LinearOperator(a.shape, matvec=lambda v: inv_diag * v, dtype=np.float64)
+        elif preconditioner == "ilu":
+            ilu = spilu(a.tocsc(), drop_tol=1e-4, fill_factor=10)
+            m = LinearOperator(a.shape, matvec=ilu.solve, dtype=np.float64)
         elif preconditioner is not None:
-            raise AnalysisError(f"preconditioner must be 'jacobi' or None, got {preconditioner!r}")
+            raise AnalysisError(f"preconditioner must be 'jacobi', 'ilu' or None, got {preconditioner!r}")
         x, info = cg(a, b, x0=fill.ravel(), rtol=float(tol), maxiter=int(maxiter), M=m)
         if info < 0:
             raise AnalysisError("the conjugate-gradient solver broke down")

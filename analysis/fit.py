@@ -61,9 +61,10 @@ def fit_mirror_spacing(observed, simulate, spacings=None, *, metric="esf_slope",
 
     ``simulate`` is a callable ``spacing -> image`` or a dict ``{spacing: image}`` (then ``spacings`` defaults to
     its sorted keys). For every spacing the metric (:func:`image_metric`) of the simulated image is compared with
-    the observed one's; the mismatch is ``(metric(sim) - metric(obs))^2``. The best grid point is refined by the
-    vertex of the parabola through it and its two neighbours (exact when the metric is locally linear in the
-    spacing), kept only if the parabola opens upwards and its vertex lies between the neighbours.
+    the observed one's; the mismatch is ``(metric(sim) - metric(obs))^2``. Parabolic refinement around the grid
+    minimum: the metric is interpolated by the parabola through the best grid point and its two neighbours, and
+    the refined spacing minimises the mismatch of that parabola between the neighbours (sampled at 4001 points);
+    exact when the metric is quadratic in the spacing there. At an end of the grid no refinement is made.
     Defocus is symmetric about best focus, so scan one side of it: two spacings can match equally.
     """
     obs = as_image(observed, "observed")
@@ -95,7 +96,9 @@ def fit_mirror_spacing(observed, simulate, spacings=None, *, metric="esf_slope",
     i = int(np.argmin(mismatch))
     best, refined = float(grid[i]), False
     if 0 < i < grid.size - 1:
-        a, b, _ = np.polyfit(grid[i - 1:i + 2], mismatch[i - 1:i + 2], 2)
-        if a > 0 and grid[i - 1] <= -b / (2 * a) <= grid[i + 1]:
-            best, refined = float(-b / (2 * a)), True
+        # parabola through the metric at the best grid point and its neighbours; the refined spacing minimises
+        # the squared difference between that parabola and the observed metric inside the bracket
+        coeffs = np.polyfit(grid[i - 1:i + 2], values[i - 1:i + 2], 2)
+        fine = np.linspace(grid[i - 1], grid[i + 1], 4001)
+        best, refined = float(fine[np.argmin((np.polyval(coeffs, fine) - target) ** 2)]), True
     return SpacingFit(best, float(grid[i]), refined, grid, values, mismatch, float(target))

@@ -224,11 +224,11 @@ def esf_width_10_90(image, roi=None, *, oversample=4, edge_fit_degree=1, plateau
     return float(high.min() - low.max())
 
 
-def esf_slope(image, roi, *, half_span=0.5, oversample=4, edge_fit_degree=1, plateau=0.2, levels=None):
+def esf_slope(image, roi=None, *, half_span=0.5, oversample=4, edge_fit_degree=1, plateau=0.2, levels=None):
     """The "ESF slope" of an edge in a small pixel region (Ryu et al. 2017), in 1/px.
 
-    Signature: ``esf_slope(image, roi, *, half_span=0.5, oversample=4, edge_fit_degree=1, plateau=0.2,
-    levels=None) -> float``.
+    Signature: ``esf_slope(image, roi=None, *, half_span=0.5, oversample=4, edge_fit_degree=1, plateau=0.2,
+    levels=None) -> float``; ``roi = (x, y, w, h)`` is the N x N (or any) pixel region, None for the whole image.
 
     Definition used here: the super-sampled ESF of the region (:func:`edge_spread_function`) is normalized to run
     from 0 (dark plateau) to 1 (bright plateau) and interpolated by a cubic spline E through the bin values; the
@@ -239,8 +239,6 @@ def esf_slope(image, roi, *, half_span=0.5, oversample=4, edge_fit_degree=1, pla
     aperture: ``(2 Phi(h/sigma) - 1) / (2 h)``, which tends to ``1/(sqrt(2 pi) sigma)`` for large sigma.
     Larger values mean a sharper edge.
     """
-    if roi is None:
-        raise AnalysisError("esf_slope needs a region (x, y, w, h)")
     h = positive(half_span, "half_span")
     x, _, spline = _normalized_esf(image, roi, oversample, edge_fit_degree, plateau, levels)
     grid = np.arange(x[0] + h, x[-1] - h, 0.25 / oversample)

@@ -136,8 +136,12 @@ def cmd_run(args) -> int:
         return EXIT_INPUT
     script = Path(args.file)
     out = Path(args.out) if args.out else Path("irt-out") / script.stem
+    from .engine import needs_from_steps
+    from .tracer import Progress
+
     folder = RunFolder(out, str(script), checked.script_hash, checked.state.seed)
-    it = Interpreter(engine=Engine(folder))
+    records, history = needs_from_steps(checked.steps)
+    it = Interpreter(engine=Engine(folder, records=records, history=history))
     status = "complete"
     code = EXIT_OK
     try:
@@ -157,6 +161,9 @@ def cmd_run(args) -> int:
     except KeyboardInterrupt:
         status, code = "interrupted", EXIT_INTERRUPTED
         print("irt: interrupted; keeping what was written", file=sys.stderr)
+    except Exception as e:  # keep what was written, then report the internal error
+        folder.write_manifest(f"internal error: {type(e).__name__}: {e}")
+        raise
     man = folder.write_manifest(status)
     print(f"irt: outputs in {folder.root}/ ({len(folder.files)} file{'s' if len(folder.files) != 1 else ''}; "
           f"manifest {man})")

@@ -1,13 +1,31 @@
-"""Executes the steps a script reaches (TRACE, SAVE/LOAD RAYS, analysis).
+"""Executes the steps a script reaches: TRACE, SAVE/LOAD RAYS and the analysis commands.
 
-Steps that only change settings (WINDOW, PIXELS, CONSIDER, SELECT, RESET) are recorded.  Steps that need
-traced rays report a clear missing capability until the non-sequential tracer is part of this build: no
-step is ever skipped silently.
+The interpreter hands each step over as soon as it is reached, so results print in script order.  Every
+printed result carries its Monte Carlo standard error.  Files go into the run folder (relative names) and
+are written atomically; each is recorded in the manifest.
+
+Selection model (ASAP-like):
+* ``CONSIDER ONLY a b``: a later TRACE sees only those objects, and the analysis commands see only rays
+  that ended on them; ``CONSIDER ALL`` undoes it.
+* ``SELECT pred``: the analysis commands see only rays whose history satisfies pred; ``SELECT ALL`` undoes it.
+* Detector images (EXPORT of an object with a DETECTOR, SPECTRUM OF) are streaming tallies over every ray;
+  SELECT does not apply to them (they keep no per-ray data).  Record-based results (SPOTS, FOCUS,
+  STATS POSITION/DIRECTION, EXPORT of an object without a DETECTOR, SAVE RAYS) honour both.
 """
 from __future__ import annotations
 
+import csv
+import io
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
 from .io.manifest import RunFolder
 from .lang.diagnostics import Span
+from .lang.units import Quantity, UNITS, LENGTH
+from .model import scene as M
 
 
 class MissingCapability(Exception):
@@ -22,25 +40,413 @@ class RuntimeFailure(Exception):
         super().__init__(message)
 
 
-SETTINGS = ("WINDOW", "PIXELS", "CONSIDER", "SELECT", "RESET")
-NEEDS_TRACER = ("TRACE", "LOAD_RAYS")
+RECORD_STEPS = {"SPOTS", "FOCUS", "SAVE_RAYS", "EXPORT"}
+COLS = ("incident_W", "reflected_W", "transmitted_W", "scattered_W", "absorbed_W")
+
+
+def needs_from_steps(steps) -> tuple[bool, bool]:
+    """(records, history) that the program's steps need, decided from the checked program."""
+    rec = hist = False
+    for s in steps:
+        if s.kind in RECORD_STEPS or (s.kind == "STATS" and s.params.get("what") in ("POSITION", "DIRECTION")):
+            rec = True
+        if s.kind == "SELECT" and s.params.get("predicate") is not None:
+            rec = hist = True
+        if s.kind == "SAVE_RAYS":
+            hist = True
+    return rec, hist
 
 
 class Engine:
-    def __init__(self, folder: RunFolder):
+    def __init__(self, folder: RunFolder, *, records: bool = True, history: bool = True, progress=None,
+                 out=None):
         self.folder = folder
-        self.settings: dict = {}
-        self.have_rays = False
+        self.need_records, self.need_history = records, history
+        self.progress = progress
+        self.out = out or (lambda s: print(s, flush=True))
+        self.result = None
+        self.scene: M.Scene | None = None
+        self.window = None
+        self.pixels = (101, 101)
+        self.consider: tuple | None = None
+        self.predicate = None
+        self.rays_traced = 0
 
-    def run_step(self, step, interp) -> None:
-        k = step.kind
-        if k in SETTINGS:
-            self.settings[k] = step.params
-            if k == "RESET":
-                self.have_rays = False
-            return
-        what = {"LOAD_RAYS": "LOAD RAYS", "SAVE_RAYS": "SAVE RAYS", "SPECTRUM_OF": "SPECTRUM OF"}.get(k, k)
-        if k in NEEDS_TRACER:
-            raise MissingCapability(step.span, what, "the non-sequential tracer (issue: the tracer)")
-        if not self.have_rays:
+    # ------------------------------------------------------------------ dispatch
+    def run_step(self, step: M.Step, interp) -> None:
+        fn = getattr(self, "do_" + step.kind.lower(), None)
+        if fn is None:  # pragma: no cover - every step kind has a handler
+            raise MissingCapability(step.span, step.kind, "an executor for this command")
+        fn(step, interp)
+
+    def _need_rays(self, step, what):
+        if self.result is None:
             raise RuntimeFailure(step.span, f"{what} has no rays to work on: TRACE or LOAD RAYS first")
+
+    def _lu(self) -> tuple[str, float]:
+        u = (self.scene.units if self.scene else "MM")
+        return u.lower(), UNITS[u.lower()][0]
+
+    # ------------------------------------------------------------------ settings
+    def do_reset(self, step, interp):
+        self.result = None
+        self.predicate = None
+
+    def do_window(self, step, interp):
+        self.window = dict(step.params)
+
+    def do_pixels(self, step, interp):
+        self.pixels = (step.params["nx"], step.params["ny"])
+
+    def do_consider(self, step, interp):
+        self.consider = step.params["objects"]
+
+    def do_select(self, step, interp):
+        self.predicate = step.params["predicate"]
+        if self.result is not None and self.predicate is not None and self.result.records is None:
+            raise RuntimeFailure(step.span, "SELECT needs ray records, which this trace did not keep")
+
+    # ------------------------------------------------------------------ trace
+    def do_trace(self, step, interp):
+        from .compile.pack import MissingFeature
+        from .tracer import run_trace
+
+        sc = step.scene
+        if self.consider:
+            keep = set(self.consider)
+            sc = M.replace(sc, objects=M.frozen_params({k: v for k, v in sc.objects.items() if k in keep}))
+        p = step.params
+        try:
+            res = run_trace(sc, seed=sc.seed, level=p["level"], halt=p["halt"], until_error=p["until_error"],
+                            until_target=p["until_target"], records=self.need_records, history=self.need_history,
+                            progress=self.progress)
+        except MissingFeature as e:
+            raise MissingCapability(e.span, e.what, e.capability) from None
+        self.result = res
+        self.scene = sc
+        self.rays_traced += res.n_traced
+        self.folder.info["rays_traced"] = self.rays_traced
+        lost = res.ledger[res.packed.n_rows - 1, 4].sum()
+        emitted = res.ledger[res.packed.n_rows - 4, 0].sum()
+        msg = f"TRACE: {res.n_traced:,} rays, {emitted:.6g} W emitted"
+        if res.passes > 1:
+            msg += f" ({res.passes} passes)"
+        if p["until_target"]:
+            oi = list(sc.objects).index(p["until_target"])
+            f, se = res.flux_on(oi)
+            msg += f"; {sc.objects[p['until_target']].name}: {f:.6g} W +- {se:.2g} ({se / f:.2%})" if f else ""
+        self.out(msg)
+        if res.interrupted:
+            self.out("TRACE: interrupted; the results hold the rays traced so far")
+        if lost > 0:
+            print(f"warning: {lost:.3g} W of ray flux was LOST to numerical failures "
+                  f"(see STATS LEDGER)", file=sys.stderr)
+
+    # ------------------------------------------------------------------ record selection
+    def _selected(self, step, what, obj_filter=None) -> np.ndarray:
+        """Mask of the records the analysis sees (CONSIDER, SELECT, and an optional last-object filter)."""
+        self._need_rays(step, what)
+        r = self.result.records
+        if r is None:
+            raise RuntimeFailure(step.span, f"{what} needs ray records, which this trace did not keep")
+        m = np.ones(len(r["flux"]), bool)
+        names = list(self.scene.objects)
+        if self.consider:
+            idx = [names.index(k) for k in self.consider if k in names]
+            m &= np.isin(r["object"], idx)
+        if obj_filter is not None:
+            m &= r["object"] == names.index(obj_filter)
+        if self.predicate is not None:
+            m &= _eval_pred(self.predicate, r, names, self.result.packed.lines_nm)
+        return m
+
+    # ------------------------------------------------------------------ analysis
+    def do_stats(self, step, interp):
+        what = step.params["what"] or "LEDGER"
+        if what == "LEDGER":
+            self._need_rays(step, "STATS LEDGER")
+            res = self.result
+            led = res.ledger.sum(axis=2)
+            rows = res.rows
+            se = _se_rows(res)
+            lines = [f"{'object':<16}" + "".join(f"{c:>16}" for c in COLS)]
+            for name, row, e in zip(rows, led, se):
+                lines.append(f"{name:<16}" + "".join(f"{v:16.6g}" for v in row) + (f"   +- {e:.2g}" if e else ""))
+            total_abs = led[:, 4].sum()
+            emitted = led[len(rows) - 4, 0]
+            lines.append(f"ledger: sum of absorbed_W = {total_abs:.12g} W, EMITTED = {emitted:.12g} W, "
+                         f"relative difference {abs(total_abs - emitted) / emitted if emitted else 0:.1e}")
+            self.out("\n".join(lines))
+            if step.params["file"]:
+                buf = io.StringIO()
+                w = csv.writer(buf, lineterminator="\n")
+                w.writerow(("object",) + COLS)
+                for name, row in zip(rows, led):
+                    w.writerow([name] + [repr(float(v)) for v in row])
+                self._write_text(step.params["file"], buf.getvalue(), "ledger")
+            return
+        m = self._selected(step, f"STATS {what}")
+        r = self.result.records
+        w = r["flux"][m]
+        unit, f = self._lu()
+        n = int(m.sum())
+        if n == 0:
+            self.out(f"STATS {what}: no rays selected")
+            return
+        tot = w.sum()
+        vec = r["position"][m] / f if what == "POSITION" else r["direction"][m]
+        mean = (vec * w[:, None]).sum(0) / tot if tot else vec.mean(0)
+        sd = np.sqrt(((vec - mean) ** 2 * w[:, None]).sum(0) / tot) if tot else np.zeros(3)
+        sem = sd / math.sqrt(max(n - 1, 1))
+        lab = f" ({unit})" if what == "POSITION" else ""
+        self.out(f"STATS {what}: {n:,} rays, flux {tot:.6g} W +- {_se(w, self.result.n_traced):.2g}\n"
+                 + "\n".join(f"  {a}: mean {mu:.9g} +- {e:.2g}{lab}, rms spread {s:.6g}"
+                             for a, mu, e, s in zip("XYZ", mean, sem, sd)))
+
+    def _window(self, vec):
+        if self.window:
+            wd = self.window
+            ax = ("XYZ".index(wd["axis1"]), "XYZ".index(wd["axis2"]))
+            return ax, (wd["min1"], wd["max1"]), (wd["min2"], wd["max2"])
+        # no WINDOW: the two axes across the rays' mean direction, a square around the rays
+        d = self.result.records["direction"]
+        main = int(np.argmax(np.abs(d.mean(0)))) if len(d) else 2
+        ax = tuple(i for i in range(3) if i != main)
+        lo, hi = vec[:, ax].min(0), vec[:, ax].max(0)
+        c = 0.5 * (lo + hi)
+        h = max(float((hi - lo).max()) / 2 * 1.05, 1e-15 * max(1.0, float(np.abs(c).max())))
+        return ax, (c[0] - h, c[0] + h), (c[1] - h, c[1] + h)
+
+    def do_spots(self, step, interp):
+        m = self._selected(step, "SPOTS")
+        r = self.result.records
+        if not m.any():
+            self.out("SPOTS: no rays selected")
+            return
+        unit, f = self._lu()
+        vec = r["position"][m] if step.params["what"] == "POSITION" else r["direction"][m]
+        ax, (a0, a1), (b0, b1) = self._window(vec)
+        w = r["flux"][m]
+        nx, ny = self.pixels
+        img, _, _ = np.histogram2d(vec[:, ax[1]], vec[:, ax[0]], bins=(ny, nx), range=((b0, b1), (a0, a1)), weights=w)
+        inside = ((vec[:, ax[0]] >= a0) & (vec[:, ax[0]] <= a1) & (vec[:, ax[1]] >= b0) & (vec[:, ax[1]] <= b1))
+        x, y = vec[:, ax[0]], vec[:, ax[1]]
+        tot = w.sum()
+        cx, cy = (x * w).sum() / tot, (y * w).sum() / tot
+        rms = math.sqrt(((x - cx) ** 2 + (y - cy) ** 2) @ w / tot)
+        scale = f if step.params["what"] == "POSITION" else 1.0
+        lab = unit if step.params["what"] == "POSITION" else "(direction cosine)"
+        self.out(f"SPOTS {step.params['what']}: {int(m.sum()):,} rays, {tot:.6g} W +- {_se(w, self.result.n_traced):.2g}"
+                 f" ({inside.mean():.1%} in the window); centroid {'XYZ'[ax[0]]} {cx / scale:.9g}, "
+                 f"{'XYZ'[ax[1]]} {cy / scale:.9g} {lab}; rms radius {rms / scale:.6g} {lab}")
+        if step.params["file"]:
+            self._write_image(step.params["file"], img[None], "spots", extent=(a0 / scale, a1 / scale, b0 / scale, b1 / scale))
+
+    def do_focus(self, step, interp):
+        m = self._selected(step, "FOCUS")
+        r = self.result.records
+        if m.sum() < 2:
+            raise RuntimeFailure(step.span, "FOCUS needs at least two selected rays")
+        p, d, w = r["position"][m], r["direction"][m], r["flux"][m]
+        axis = (d * w[:, None]).sum(0)
+        axis /= np.linalg.norm(axis)
+        a = int(np.argmax(np.abs(axis)))
+        sgn = 1.0 if axis[a] > 0 else -1.0
+        # transverse coordinates and slopes per unit advance along the axis
+        da = d[:, a]
+        if np.any(np.abs(da) < 1e-12):
+            raise RuntimeFailure(step.span, "FOCUS: some rays run across the axis")
+        tr = [i for i in range(3) if i != a]
+        x0 = p[:, tr]
+        u = d[:, tr] / da[:, None]
+        W = w.sum()
+        xm, um = (x0 * w[:, None]).sum(0) / W, (u * w[:, None]).sum(0) / W
+        X, U = x0 - xm, u - um
+        den = (w[:, None] * U * U).sum()
+        s = -(w[:, None] * X * U).sum() / den if den > 0 else 0.0
+        rms0 = math.sqrt((w[:, None] * X * X).sum() / W)
+        Xs = X + s * U
+        rms = math.sqrt((w[:, None] * Xs * Xs).sum() / W)
+        unit, f = self._lu()
+        self.out(f"FOCUS: best focus {s / f:+.9g} {unit} along {'+-'[sgn < 0]}{'XYZ'[a]} from the rays' end points "
+                 f"(RMS radius {rms / f:.6g} {unit} there, {rms0 / f:.6g} {unit} at the end points; "
+                 f"{int(m.sum()):,} rays)")
+        interp.assign("FOCUS_SHIFT", Quantity(s, LENGTH), step.span)
+        interp.assign("FOCUS_RMS", Quantity(rms, LENGTH), step.span)
+
+    def do_spectrum_of(self, step, interp):
+        self._need_rays(step, "SPECTRUM OF")
+        res = self.result
+        names = list(self.scene.objects)
+        key = step.params["object"]
+        if key not in names:
+            raise RuntimeFailure(step.span, f"object {key} was not part of the last TRACE (CONSIDER)")
+        o = names.index(key)
+        flux = res.ledger[o, 0]
+        se = _se_arr(flux, res.ledger_sq[o], res.n_traced)
+        lines = ["wavelength_nm,flux_W,stderr_W"] + [f"{lam:.6g},{repr(float(f))},{repr(float(e))}"
+                                                     for lam, f, e in zip(res.packed.lines_nm, flux, se)]
+        shown = lines[:1] + lines[1:8] + (["..."] if len(lines) > 9 else []) + (lines[-1:] if len(lines) > 8 else [])
+        self.out(f"SPECTRUM OF {self.scene.objects[key].name}:\n  " + "\n  ".join(shown))
+        if step.params["file"]:
+            self._write_text(step.params["file"], "\n".join(lines) + "\n", "spectrum")
+
+    def do_export(self, step, interp):
+        self._need_rays(step, "EXPORT")
+        key = step.params["object"]
+        obj = self.scene.objects.get(key)
+        if obj is None:
+            raise RuntimeFailure(step.span, f"object {key} was not part of the last TRACE (CONSIDER)")
+        unit, f = self._lu()
+        if obj.name in self.result.images:
+            img, img2 = self.result.images[obj.name]
+            d = self.result.packed.detector_names.index(obj.name)
+            x0, x1, y0, y1 = self.result.packed.d_ext[d] / f
+            self._write_image(step.params["file"], img, "image", extent=(x0, x1, y0, y1), sum2=img2)
+            self.out(f"EXPORT {obj.name}: {img.shape[2]}x{img.shape[1]} pixels x {img.shape[0]} lines, "
+                     f"{img.sum():.6g} W -> {step.params['file']}")
+            return
+        # no DETECTOR: the WINDOW / PIXELS grid of the selected rays that ended on the object
+        m = self._selected(step, "EXPORT", obj_filter=key)
+        r = self.result.records
+        vec = r["position"][m]
+        if len(vec) == 0:
+            raise RuntimeFailure(step.span, f"EXPORT {obj.name}: no selected rays ended on it")
+        ax, (a0, a1), (b0, b1) = self._window(vec)
+        nx, ny = self.pixels
+        L = len(self.result.packed.lines_nm)
+        img = np.zeros((L, ny, nx))
+        img2 = np.zeros((L, ny, nx))
+        for k in range(L):
+            mk = r["line"][m] == k
+            w = r["flux"][m][mk]
+            img[k] = np.histogram2d(vec[mk, ax[1]], vec[mk, ax[0]], bins=(ny, nx), range=((b0, b1), (a0, a1)), weights=w)[0]
+            img2[k] = np.histogram2d(vec[mk, ax[1]], vec[mk, ax[0]], bins=(ny, nx), range=((b0, b1), (a0, a1)), weights=w * w)[0]
+        self._write_image(step.params["file"], img, "image", extent=(a0 / f, a1 / f, b0 / f, b1 / f), sum2=img2)
+        self.out(f"EXPORT {obj.name}: WINDOW grid {nx}x{ny} x {L} lines, {img.sum():.6g} W -> {step.params['file']}")
+
+    def do_save_rays(self, step, interp):
+        from analysis.rayfile import write_rays_v1
+
+        at = step.params["at"]
+        m = self._selected(step, "SAVE RAYS", obj_filter=at)
+        r = self.result.records
+        unit, f = self._lu()
+        dets = {}
+        for name, (img, img2) in self.result.images.items():
+            d = self.result.packed.detector_names.index(name)
+            x0, x1, y0, y1 = self.result.packed.d_ext[d] / f
+            dets[name] = {"sum": img, "sum2": img2, "x_range": (x0, x1), "y_range": (y0, y1),
+                          "pixel_size": ((x1 - x0) / img.shape[2], (y1 - y0) / img.shape[1])}
+        hist = r["history"][m]
+        hist = np.where(hist >= 0, hist // 8, -1).astype(np.int32) if hist.size else np.full((int(m.sum()), 1), -1, np.int32)
+        path = self.folder.output(step.params["file"])
+        write_rays_v1(path, wavelengths_nm=self.result.packed.lines_nm, objects=self.result.packed.object_names,
+                      position=r["position"][m] / f, direction=r["direction"][m], flux=r["flux"][m],
+                      line=r["line"][m], source=r["source"][m], object=r["object"][m], events=r["events"][m],
+                      flags=r["flags"][m], history=hist, detectors=dets, length_unit=unit, seed=self.result.seed,
+                      script_sha256=self.folder.info["script_sha256"], data_tier=self.folder.info["data_tier"],
+                      rays_traced=self.result.n_traced)
+        self.folder.record(path, "rays")
+        self.out(f"SAVE RAYS: {int(m.sum()):,} rays -> {step.params['file']}")
+
+    def do_load_rays(self, step, interp):
+        from analysis import AnalysisError
+        from analysis.rayfile import read_rays
+
+        try:
+            rf = read_rays(step.params["file"])
+        except (AnalysisError, OSError) as e:
+            raise RuntimeFailure(step.span, f"LOAD RAYS: {e}") from None
+        self.result = _LoadedResult(rf, step.scene)
+        self.scene = step.scene
+        self.out(f"LOAD RAYS: {rf.n_rays:,} rays from {Path(step.params['file']).name}")
+
+    # ------------------------------------------------------------------ files
+    def _write_text(self, rel, text, kind):
+        from .io.atomic import write_text
+
+        p = self.folder.output(rel)
+        write_text(p, text)
+        self.folder.record(p, kind)
+
+    def _write_image(self, rel, img, kind, extent, sum2=None):
+        from .io.images import write_image
+
+        p = self.folder.output(rel)
+        unit, _ = self._lu()
+        lines = self.result.packed.lines_nm if img.shape[0] == len(self.result.packed.lines_nm) else None
+        for q in write_image(p, img, sum2=sum2, extent=extent, wavelengths_nm=lines, length_unit=unit):
+            self.folder.record(q, kind)
+
+
+class _LoadedResult:
+    """Ray records read by LOAD RAYS, shaped like a TraceResult for the analysis commands."""
+
+    def __init__(self, rf, scene):
+        f = UNITS[rf.attrs.get("length_unit", "mm").lower()][0]
+        hist = rf.history if rf.history is not None else np.full((rf.n_rays, 1), -1, np.int32)
+        self.records = dict(position=rf.position * f, direction=rf.direction, flux=rf.flux, line=rf.line,
+                            source=rf.source, object=rf.object, events=rf.events, flags=rf.flags,
+                            history=np.where(hist >= 0, hist * 8, -1))
+        self.n_traced = int(rf.attrs.get("rays_traced", rf.n_rays))
+        self.seed = int(rf.attrs.get("seed", 0))
+        self.images = {n: (d.sum, d.sum2) for n, d in rf.detectors.items()}
+
+        class _P:
+            pass
+        self.packed = _P()
+        self.packed.lines_nm = rf.wavelengths_nm
+        self.packed.object_names = list(rf.objects)
+        self.packed.detector_names = list(rf.detectors)
+        self.packed.d_ext = np.array([[*d.x_range, *d.y_range] for d in rf.detectors.values()]) * f \
+            if rf.detectors else np.zeros((0, 4))
+        self.ledger = None
+
+
+def _eval_pred(pred, r, names, lines_nm) -> np.ndarray:
+    op = pred[0]
+    if op == "and":
+        return _eval_pred(pred[1], r, names, lines_nm) & _eval_pred(pred[2], r, names, lines_nm)
+    if op == "or":
+        return _eval_pred(pred[1], r, names, lines_nm) | _eval_pred(pred[2], r, names, lines_nm)
+    if op == "not":
+        return ~_eval_pred(pred[1], r, names, lines_nm)
+    h = r["history"]
+    hobj = np.where(h >= 0, h // 8, -1)
+    if op == "WAVELENGTH":
+        lo, hi = pred[1]
+        lam = np.asarray(lines_nm)[r["line"]]
+        return (lam >= lo) & (lam <= hi)
+    idx = [names.index(k) for k in pred[1]]
+    if op == "HIT":
+        return np.isin(hobj, idx).any(axis=1) | np.isin(r["object"], idx)
+    if op == "LAST":
+        return np.isin(r["object"], idx)
+    if op == "SCATTERED":
+        return (np.isin(hobj, idx) & ((h % 8) == 3)).any(axis=1)
+    if op == "PATH":
+        want = np.full(h.shape[1], -1)
+        n = min(len(idx), h.shape[1])
+        want[:n] = idx[:n]
+        return np.all(hobj == want, axis=1)
+    raise ValueError(op)  # pragma: no cover
+
+
+def _se(w, n):
+    from .tracer import standard_error
+
+    return float(standard_error(w.sum(), (w * w).sum(), n))
+
+
+def _se_arr(s1, s2, n):
+    from .tracer import standard_error
+
+    return standard_error(s1, s2, n)
+
+
+def _se_rows(res):
+    from .tracer import standard_error
+
+    return [float(standard_error(res.ledger[i, 0].sum(), res.ledger_sq[i].sum(), res.n_traced))
+            if i < len(res.packed.object_names) else 0.0 for i in range(res.packed.n_rows)]

@@ -5,7 +5,7 @@
 water.csv      wavelength_nm, n, k of water (a smooth stand-in, 200-3000 nm)
 grass.csv      wavelength_nm, reflectance of grass (a smooth stand-in, 200-3000 nm)
 landcover.npy  a 90 x 180 LATLON class map (uint8, classes 0..4: water forest grass desert snow)
-clouds.npy     a 90 x 180 LATLON fraction map (float32 in [0, 1])
+clouds.npy     a 90 x 180 LATLON fraction map (float16 in [0, 1])
 baffle.stl     a 20 x 20 x 40 box, ASCII STL (made with trimesh)
 run.h5         an empty ray file in the docs/rayfile.md schema (for LOAD RAYS)
 telescope.inr  a script that the INCLUDE examples include
@@ -36,7 +36,7 @@ def main() -> None:
     cls = np.where(np.abs(lat) > 70, 4, np.where(np.sin(np.radians(3 * lon)) > 0.3, 1 + (np.abs(lat) > 25) + (np.abs(lat) > 45), 0))
     np.save(HERE / "landcover.npy", cls.astype(np.uint8))
     frac = 0.5 + 0.5 * np.cos(np.radians(2 * lat)) * np.cos(np.radians(lon))
-    np.save(HERE / "clouds.npy", np.clip(frac, 0.0, 1.0).astype(np.float32))
+    np.save(HERE / "clouds.npy", np.clip(frac, 0.0, 1.0).astype(np.float16))
 
     import trimesh
 

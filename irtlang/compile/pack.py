@@ -391,6 +391,7 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
             else:
                 out["src_dir"][i] = DIR_FIELD
                 par[6:8] = d["angle_x"], d["angle_y"]
+                par[8] = -1.0 if g["position"] > 0 else 1.0     # toward the plane (axis) = 0
         else:
             pts_off.append(npts)
             out["src_dir"][i] = DIR_LAMBERT

@@ -41,8 +41,9 @@ that closest point and shifted back by t0: the coefficients' rounding grows like
 origin's own rounding. The origin is used as is when it is near, moving away, or on the surface
 (|C| <= NEAR_SURFACE = 1e-3 times the sum of C's terms): a ray leaving the surface keeps the exact line, so
 an origin exactly on the surface gets C = 0 and the root t = 0, while the other root keeps full relative
-accuracy, even at grazing departure. ``hit_tube`` does the same about
-the point (0, 0, (z1 + z2) / 2).
+accuracy, even at grazing departure. ``hit_tube`` does the same about the point (0, 0, (z1 + z2) / 2),
+and only when the origin is also SHIFT_RATIO times farther than the frustum's size (a ray through a cone's
+apex, a singular double root, is then solved from its own origin).
 
 With aspheric terms, each vertex-sheet conic root (or, when the conic is missed, the plane root) seeds a
 Newton iteration on ``g(t) = z(t) - sag(r(t)^2)``; a root that leaves the conic's domain, meets a
@@ -289,12 +290,14 @@ def conic_residual(x, y, z, c, k, asph):
     geometric distance, finite near an ellipsoid's equator); np.inf outside the domain."""
     s = x * x + y * y
     arg = 1.0 - (1.0 + k) * c * c * s
-    if arg < 0.0:
+    if arg < 0.0 or not math.isfinite(s) or not math.isfinite(z):
         return INF
     q = math.sqrt(arg)
     zc = c * s / (1.0 + q)
     p, dp = _asph_eval(s, asph)
     m = c + 2.0 * q * dp
+    if not (math.isfinite(zc) and math.isfinite(p) and math.isfinite(m)):
+        return INF
     nz = q / norm3(x * m, y * m, q) if (q != 0.0 or m != 0.0) else 1.0
     if arg == 0.0:
         # on the domain edge the surface is vertical: use the implicit conic residual instead
@@ -470,7 +473,9 @@ def hit_tube(ox, oy, oz, dx, dy, dz, z1, r1, z2, r2):
     t0, px, py, pz = _closest_approach(ox, oy, oz, dx, dy, dz, zc)
     rho0 = math.hypot(ox, oy)
     w0 = abs(r1 + sl * (oz - z1))
-    if (t0 > 0.0 and max(abs(ox), abs(oy), abs(oz - zc)) > SHIFT_RATIO * max(abs(px), abs(py), abs(pz - zc))
+    size = max(0.5 * (z2 - z1), abs(r1), abs(r2))
+    if (t0 > 0.0
+            and max(abs(ox), abs(oy), abs(oz - zc)) > SHIFT_RATIO * max(abs(px), abs(py), abs(pz - zc), size)
             and abs(rho0 - w0) > NEAR_SURFACE * (rho0 + w0)):
         ox, oy, oz = px, py, pz
     else:
@@ -482,19 +487,47 @@ def hit_tube(ox, oy, oz, dx, dy, dz, z1, r1, z2, r2):
     cc = (rho - w) * (rho + w)
     d = disc(b, a, cc)
     t1, t2 = solve_quadratic(a, b, cc, d)
+    size = max(size, abs(zc))
     if t1 != INF:
+        t1 = _tube_polish(ox, oy, oz, dx, dy, dz, t1, z1, r1, sl, size)
         z = oz + t1 * dz
         if z < z1 or z > z2:
             t1 = INF
         else:
             t1 += t0
     if t2 != INF:
+        t2 = _tube_polish(ox, oy, oz, dx, dy, dz, t2, z1, r1, sl, size)
         z = oz + t2 * dz
         if z < z1 or z > z2:
             t2 = INF
         else:
             t2 += t0
     return _sort2(t1, t2)
+
+
+@numba.njit(cache=True, fastmath=False)
+def _tube_polish(ox, oy, oz, dx, dy, dz, t, z1, r1, sl, size):
+    """One Newton step on f(t) = rho(t) - r(z(t)) (the nappe's own, non-polynomial equation).
+
+    The quadric x^2 + y^2 = r(z)^2 joins both nappes of the cone, so near the apex its two roots (one per
+    nappe) crowd together and the quadratic loses accuracy like eps * size / (distance to the apex); f is
+    well conditioned there. Skipped near tangency (small f') and when the step would not be a polish.
+    """
+    x = ox + t * dx
+    y = oy + t * dy
+    z = oz + t * dz
+    rho = math.hypot(x, y)
+    if rho == 0.0:
+        return t
+    f = rho - (r1 + sl * (z - z1))
+    fp = (x * dx + y * dy) / rho - sl * dz
+    dn = norm3(dx, dy, dz)
+    if not (abs(fp) > 1e-3 * dn * (1.0 + abs(sl))):
+        return t
+    step = -f / fp
+    if not (abs(step) * dn <= 1e-6 * (abs(t) * dn + norm3(ox, oy, oz) + size)):
+        return t
+    return t + step
 
 
 @numba.njit(cache=True, fastmath=False)

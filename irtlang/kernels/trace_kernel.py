@@ -304,7 +304,7 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
         tx = math.tan(par[6])
         ty = math.tan(par[7])
         m = math.sqrt(tx * tx + ty * ty + 1.0)
-        ldx, ldy, ldz = tx / m, ty / m, 1.0 / m
+        ldx, ldy, ldz = tx / m, ty / m, par[8] / m
     else:  # Lambertian emitter (sphere, disk) or isotropic point
         if kind == 4:
             ax, ay, az = par[2], par[3], par[4]

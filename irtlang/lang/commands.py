@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from . import ast as A
-from .diagnostics import Span, did_you_mean, error
+from .diagnostics import IrtError, Span, did_you_mean, error
 from .expr import evaluate, format_value
 from .spec import (Axis, Choice, Clause, Form, Name, Param, Path, PL, Ref, Rest, V, Variants, Vs, match_keyword,
                    nonneg, positive, unit_interval)
@@ -131,10 +131,15 @@ def _wavelengths(it, b, st):
             nm = w * 1e9
             raise error(span, f"wavelength {w / it.length_factor():g} {it.state.units.lower()} "
                         f"({nm:g} nm) is outside 1 nm .. 1 mm", "give the unit: WAVELENGTHS 450 550 650 NM")
-    nm = tuple(w * 1e9 for w in lines)
+    nm = tuple(round(w * 1e9, 9) for w in lines)   # 300 nm stays 300, not 300.00000000000006
+    if len(set(nm)) != len(nm):  # a line's band would have zero width (spectra rebin to NaN)
+        dup = next(x for x in nm if nm.count(x) > 1)
+        raise error(span, f"WAVELENGTHS lists {dup:g} nm more than once", "give each line a different wavelength")
     st_ = it.state
-    if st_.first_per_line is not None and len(nm) != len(st_.wavelengths_nm):
-        raise error(b.span, "WAVELENGTHS changes the number of lines after wavelength-dependent values were "
+    if st_.first_per_line is not None and nm != tuple(st_.wavelengths_nm):
+        # values already given (spectra rebinned, tables interpolated) belong to the old lines
+        what = "the number of lines" if len(nm) != len(st_.wavelengths_nm) else "the wavelength lines"
+        raise error(b.span, f"WAVELENGTHS changes {what} after wavelength-dependent values were "
                     "given", "put WAVELENGTHS first", notes=[(st_.first_per_line, "first wavelength-dependent value")])
     st_.wavelengths_nm = nm
     st_.wavelengths_span = b.span
@@ -298,6 +303,8 @@ def _object(it, b, st):
     if blk is None:
         raise error(b.head_span, "OBJECT without SURFACE", "start the geometry with SURFACE")
     it.state.block = None
+    if blk.failed:
+        raise IrtError([])  # a surface of the block failed and was reported: no follow-on error
     if not blk.surfaces:
         raise error(b.span, f"object {name} has no surface", "put PLANE, CONIC, SPHERE, ... between SURFACE and OBJECT")
     it.fail("object", name)
@@ -311,6 +318,8 @@ def _current(it, b) -> M.SceneObject:
     if key is None:
         raise error(b.head_span, f"{b.head} has no current object to modify",
                     "modifiers apply to the object of the last SURFACE ... OBJECT name; put it after OBJECT")
+    if key not in it.state.objects:
+        raise IrtError([])  # the current object's definition failed and was reported: skip its modifiers
     return it.state.objects[key]
 
 
@@ -688,6 +697,9 @@ def _spots(it, b, st):
 
 @command("FOCUS", Form(), "analysis", "best-focus shift along the axis and its RMS spot radius")
 def _focus(it, b, st):
+    # FOCUS sets FOCUS_SHIFT and FOCUS_RMS (lengths); a check run has no rays, so they start undefined (NaN)
+    it.assign("FOCUS_SHIFT", Quantity(math.nan, LENGTH), b.span)
+    it.assign("FOCUS_RMS", Quantity(math.nan, LENGTH), b.span)
     it.step("FOCUS", {}, b.span)
 
 

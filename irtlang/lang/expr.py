@@ -134,7 +134,11 @@ def _binop(e: A.BinOp, env: Env) -> Value:
         return Quantity(r, None if (a.dim is None and b.dim is None) else d)
     if e.op in ("==", "!=", "<", "<=", ">", ">="):
         x, y, _ = _align(a, b, env, e.op_span, "compare")
-        r = {"==": x == y, "!=": x != y, "<": x < y, "<=": x <= y, ">": x > y, ">=": x >= y}[e.op]
+        # values within a relative 1e-12 are equal: a unit conversion must not decide a comparison
+        # (asin(0.5) is 30 degrees, although pi/6 and 30 * pi/180 differ in the last bit)
+        eq = math.isclose(x, y, rel_tol=1e-12)
+        r = {"==": eq, "!=": not eq, "<": x < y and not eq, "<=": x < y or eq, ">": x > y and not eq,
+             ">=": x > y or eq}[e.op]
         return Quantity(1.0 if r else 0.0)
     if e.op == "*":
         return Quantity(a.value * b.value, _dmul(a.dim, b.dim, 1))
@@ -238,7 +242,9 @@ def _call(e: A.Call, env: Env) -> Value:
         # floor ceil round: in the display unit of the dimension
         q = args[0]
         f = env.default_factor(q.dim) if q.dim not in (None, NONE) else 1.0
-        fn = {"floor": math.floor, "ceil": math.ceil, "round": round}[name]
+        # round: halves away from zero (as Fortran NINT and C round), not Python's round-half-to-even
+        fn = {"floor": math.floor, "ceil": math.ceil,
+              "round": lambda x: math.copysign(math.floor(abs(x) + 0.5), x)}[name]
         return Quantity(float(fn(q.value / f)) * f, q.dim)
     except OverflowError:
         raise error(e.span, f"{name}() overflows") from None

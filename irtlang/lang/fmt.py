@@ -294,6 +294,7 @@ class _Stmt:
         self.space_before: set[tuple[int, int]] = set()
         self.no_space_before: set[tuple[int, int]] = set()
         self.level = 0
+        self.closer = False
 
 
 class _Formatter:
@@ -443,7 +444,8 @@ class _Formatter:
                     stack.pop()
                 s.level = len(stack)
                 stack.append("OBJ")
-            elif head in MODIFIERS:
+            elif head in MODIFIERS or (isinstance(node, A.If)
+                                       and canonical_head(node.branches[0].body[0].head) in MODIFIERS):
                 s.level = len(stack)
             else:
                 if stack and stack[-1] == "OBJ":
@@ -498,8 +500,11 @@ class _Formatter:
     def _emit(self, stmts: list[_Stmt]) -> str:
         owner: dict[int, int] = {}      # the last statement with code on a line owns the line's comment
         code_end: dict[int, int] = {}   # where the code of a line ends (0-based), for finding its comment
+        shared: set[int] = set()        # lines holding code of several statements (split by fmt)
         for k, s in enumerate(stmts):
             for t in s.tokens:
+                if owner.get(t.line, k) != k:
+                    shared.add(t.line)
                 owner[t.line] = k
                 code_end[t.line] = max(code_end.get(t.line, 0), t.end_column - 1)
         out: list[str] = []
@@ -541,8 +546,9 @@ class _Formatter:
                     code = (indent if ln == s.first_line else indent + CONT_INDENT) + self._render_line(s, toks)
                     if ln != s.last_line:
                         code += " &"
-                if comment is not None:
-                    code = (code + " " * (col - len(code)) if col >= len(code) + 1 else code + "  ") + comment
+                if comment is not None:  # the comment keeps its column where the code still fits before it
+                    keep = ln not in shared and col >= len(code) + 1
+                    code = (code + " " * (col - len(code)) if keep else code + "  ") + comment
                 out.append(code)
             prev_last = max(prev_last, s.last_line)
         for ln in range(prev_last + 1, len(self.lines)):   # the text ends with a newline: skip the last ""

@@ -36,6 +36,7 @@ class StopScript(Exception):
 class _SurfaceBlock:
     span: Span
     surfaces: list = field(default_factory=list)
+    failed: bool = False                       # a surface in it failed: its OBJECT fails quietly
 
 
 @dataclass
@@ -71,6 +72,9 @@ class State:
 
 
 NAMESPACES = ("medium", "coating", "spectrum", "model", "map", "object", "group")
+# commands whose first argument is the name they define
+DEFINES = {"MEDIUM": "medium", "COATING": "coating", "SPECTRUM": "spectrum", "MODEL": "model", "MAP": "map",
+           "OBJECT": "object", "GROUP": "group"}
 
 
 class Interpreter(BindContext):
@@ -85,6 +89,8 @@ class Interpreter(BindContext):
         self.macro_stack: list[str] = []
         self.include_stack: list[Path] = []
         self.diags = DiagnosticBag()
+        self.failed_vars: set[str] = set()                # variables whose assignment failed
+        self.wavelengths_failed = False                   # a WAVELENGTHS failed: line counts may not match
         self.steps: list[M.Step] = []
         self.sources: list[Source] = []
         self.base_dir = Path.cwd()
@@ -105,6 +111,10 @@ class Interpreter(BindContext):
     def run_source(self, src: Source) -> None:
         self.sources.append(src)
         prog = parse_source(src, self.is_macro_head)
+        # failures are silenced only within one pass (a later REPL line hears "undefined ...")
+        self.state.failed.clear()
+        self.failed_vars.clear()
+        self.wavelengths_failed = False
         try:
             self.exec_block(prog.stmts)
             self.finish()
@@ -144,11 +154,14 @@ class Interpreter(BindContext):
             if k in fr:
                 return fr[k][1]
         v = self.globals.get(k)
+        if v is None and k in self.failed_vars:
+            raise IrtError([])  # its assignment failed and was reported: no follow-on error
         return v[1] if v else None
 
     def is_variable(self, name: str) -> bool:
         k = name.upper()
-        return any(k in fr for fr in self.frames) or k in self.globals or k in CONSTANTS
+        return (any(k in fr for fr in self.frames) or k in self.globals or k in CONSTANTS
+                or k in self.failed_vars)
 
     def variable_names(self) -> list[str]:
         names = [v[0] for v in self.globals.values()]
@@ -176,11 +189,23 @@ class Interpreter(BindContext):
     def exec_stmt(self, st) -> None:
         try:
             if isinstance(st, A.Assign):
-                self.assign(st.name, evaluate(st.expr, self.env), st.name_span)
+                try:
+                    value = evaluate(st.expr, self.env)
+                except IrtError:
+                    if st.name.upper() not in CONSTANTS:
+                        self.failed_vars.add(st.name.upper())
+                    raise
+                self.assign(st.name, value, st.name_span)
+                self.failed_vars.discard(st.name.upper())
             elif isinstance(st, A.Command):
                 self.exec_command(st)
             elif isinstance(st, A.Do):
-                self.exec_do(st)
+                try:
+                    self.exec_do(st)
+                except IrtError:  # bad bounds: the loop variable is never set
+                    if not self.is_variable(st.var):
+                        self.failed_vars.add(st.var.upper())
+                    raise
             elif isinstance(st, A.If):
                 for br in st.branches:
                     if br.cond is None or self.truth(br.cond):
@@ -238,13 +263,46 @@ class Interpreter(BindContext):
             key = match_keyword(st.head, self.commands, st.head_span)
         if key is None:
             hint = did_you_mean(st.head, list(self.commands) + list(self.macros))
+            short = sorted(c for c in self.commands if c.startswith(head) and " " not in c)
+            if len(head) < 3 and short:  # `SP`: too short to abbreviate anything
+                hint = "an abbreviation needs at least 3 letters: " + ", ".join(short)
             if st.head.upper() in self.macros:
                 hint = f"call a macro with CALL {st.head}"
             raise error(st.head_span, f"unknown command '{st.head}'", hint)
         cmd = self.commands[key]
         self._cmd_span = st.span
-        b = bind(key, cmd.form, st, self) if cmd.form is not None else None
-        cmd.handler(self, b, st)
+        try:
+            b = bind(key, cmd.form, st, self) if cmd.form is not None else None
+            cmd.handler(self, b, st)
+        except IrtError:
+            self._failed(key, st)
+            raise
+
+    def _failed(self, key: str, st: A.Command) -> None:
+        """A command failed: remember what it would have defined, so later uses do not cascade."""
+        from ..plugins.surfaces import REGISTRY as SURFACE_KINDS
+
+        s = self.state
+        if key == "WAVELENGTHS":
+            self.wavelengths_failed = True
+        if key in SURFACE_KINDS and s.block is not None:
+            s.block.failed = True
+            return
+        if key == "OBJECT":  # it closes the block even so; "\0" is no object's key: its modifiers are skipped
+            s.block, s.current = None, "\0"
+        ns = DEFINES.get(key)
+        first = st.args[0] if st.args else None
+        if ns is None or not isinstance(first, (A.Word, A.Str)):
+            return
+        try:
+            name = first.name if isinstance(first, A.Word) else self.string(first)
+        except IrtError:
+            return
+        k = name.upper()
+        if key == "GROUP" and k in s.groups and s.block is None and k not in s.group_stack:
+            s.group_stack.append(k)  # a duplicate GROUP still opens, so its END GROUP matches
+            s.current = None
+        self.fail(ns, name)
 
     # ------------------------------------------------------------ BindContext
     def eval(self, expr):
@@ -274,7 +332,7 @@ class Interpreter(BindContext):
         if k in table:
             return k
         if (ns, k) in self.state.failed:
-            raise error(span, f"{ns} '{name}' was not defined because its definition failed (see above)")
+            raise IrtError([])  # its definition failed and was reported: no follow-on error
         elsewhere = [n for n in NAMESPACES if n != ns and k in self._table(n)]
         hint = did_you_mean(name, [v.name for v in table.values()])
         if elsewhere:
@@ -342,7 +400,10 @@ class Interpreter(BindContext):
             raise error(span, f"recursive INCLUDE: {chain}")
         if len(self.include_stack) > MAX_CALL_DEPTH:
             raise error(span, "INCLUDE nested too deeply")
-        src = read_source(p, display_name=_display(p))
+        try:
+            src = read_source(p, display_name=_display(p))
+        except IrtError as e:  # a file-level problem (not text, unreadable) is reported at the INCLUDE
+            raise IrtError([replace(d, span=span) if d.span.line <= 0 else d for d in e.diagnostics]) from None
         self.sources.append(src)
         prog = parse_source(src, self.is_macro_head)
         self.include_stack.append(p)

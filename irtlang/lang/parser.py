@@ -322,6 +322,9 @@ def _syntax_error(e: UnexpectedInput, src: Source, text: str, line_offset: int =
                      + (f"; {exp}" if exp else ""), "compare with '=='")
     if ttype == "END":
         return error(at, "END must start its own statement", "put it on a new line or after ';'")
+    if ttype in ("MUL_OP", "CIRCUMFLEX", "COMP_OP", "ADD_OP"):
+        return error(at, f"unexpected {val!r}" + (f": {exp}" if exp else ""),
+                     "an expression among a command's arguments needs parentheses: (D/2)")
     return error(at, f"unexpected {val!r}" + (f": {exp}" if exp else ""))
 
 
@@ -347,8 +350,11 @@ def _check_text(data: bytes, name: str) -> str:
 
 def read_source(path: str | Path, display_name: str | None = None) -> Source:
     p = Path(path)
-    data = p.read_bytes()
     name = display_name or str(path)
+    try:
+        data = p.read_bytes()
+    except OSError as e:
+        raise error(Span(Source(name, ""), 0, 0, 0, 0), f"cannot read {name}: {e.strerror or e}") from None
     return Source(name, _check_text(data, name))
 
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Sequence
 
 from . import ast as A
-from .diagnostics import Span, did_you_mean, error
+from .diagnostics import IrtError, Span, did_you_mean, error
 from .units import Dim, NONE, Quantity, dim_name
 
 # ---------------------------------------------------------------- declarations
@@ -289,10 +289,14 @@ def _bind_clauses(clauses: list, cur: _Cursor, ctx, b: Bound, where: str) -> Non
         kw = match_keyword(it.name, kws, it.span) if isinstance(it, A.Word) else None
         if kw is None:
             if not kws:
+                if isinstance(it, A.Word) and not ctx.is_variable(it.name) and _after_bare_number(cur):
+                    raise _unknown_unit(it, None)
                 raise error(it.span, f"unexpected {_item_desc(it)}: {where} takes nothing more here")
             hint = did_you_mean(it.name, kws) if isinstance(it, A.Word) else None
             if hint is None and isinstance(it, A.Word) and ctx.is_variable(it.name):
                 hint = "a value here needs a keyword before it"
+            if hint is None and isinstance(it, A.Word) and _after_bare_number(cur):
+                raise _unknown_unit(it, f"{where} takes " + ", ".join(kws) + " here")
             raise error(it.span, f"unexpected {_item_desc(it)} in {where}: expected "
                         + ", ".join(kws), hint)
         if kw in seen:
@@ -308,6 +312,22 @@ def _bind_clauses(clauses: list, cur: _Cursor, ctx, b: Bound, where: str) -> Non
     for c, cwhere in clauses:
         if c.required and c.kw not in seen:
             raise error(b.span, f"{cwhere} needs {c.kw}", "usage: " + c.usage())
+
+
+def _after_bare_number(cur: _Cursor) -> bool:
+    """Whether the item before the cursor is a number without a unit on the same line (`5 furlongs`)."""
+    prev = cur.items[cur.i - 1] if cur.i > 0 else None
+    it = cur.peek()
+    return (isinstance(prev, A.Num) and prev.unit is None and it is not None
+            and it.span.line == prev.span.end_line)
+
+
+def _unknown_unit(it, also: str | None):
+    from .units import UNITS
+    hint = did_you_mean(it.name, UNITS)
+    if hint is None:
+        hint = "known units: " + " ".join(u for u in UNITS if u != "%") + (f"; {also}" if also else "")
+    return error(it.span, f"unknown unit '{it.name}'", hint)
 
 
 def _value_item(it) -> bool:
@@ -412,6 +432,8 @@ def _bind_param(p: Param, cur: _Cursor, ctx, b: Bound, stop_kws: list, where: st
         if len(vals) == 1:
             vals = vals * n
         elif len(vals) != n:
+            if getattr(ctx, "wavelengths_failed", False):
+                raise IrtError([])  # the WAVELENGTHS that failed (and was reported) probably had this many
             raise error(sp, f"{where}: {len(vals)} values for {p.label}, but WAVELENGTHS has {n} line"
                         + ("s" if n != 1 else ""), "give one value for all lines, or one per line")
         b.values[p.label] = PerLine(tuple(vals))
@@ -457,6 +479,8 @@ def _take_list(p: Param, cur: _Cursor, ctx, stop_kws: list, where: str):
                 raise error(it.span, f"a unit ('{it.name}') must follow a number directly",
                             "write the number and its unit together, e.g. 5 mm")
             hint = did_you_mean(it.name, list(stop_kws) + list(ctx.variable_names()))
+            if hint is None and _after_bare_number(cur):  # `5 furlongs`
+                raise _unknown_unit(it, f"{where} takes " + ", ".join(stop_kws) + " here" if stop_kws else None)
             raise error(it.span, f"unknown keyword or undefined variable '{it.name}' in {where}", hint)
         cur.next()
         raw.append((it, 1))

@@ -18,8 +18,8 @@ def _noisy_edge(sigma, seed):
 
 @pytest.mark.parametrize("sigma", [1.0, 1.5, 2.0, 3.0, 4.0])
 def test_zhuo_sim_sigma_on_an_edge(sigma):
-    # ORACLES.md: about 5 % for 1 to 4 px blur at SNR >= 100. The edge has about 256 edge pixels; their median is
-    # the estimate.
+    # ORACLES.md: about 5 % for 1 to 4 px blur at SNR >= 100. The median over the ~256 edge pixels is the estimate;
+    # over 10 noise draws its mean error is -1.0 % and its scatter 0.6 % at 4 px (smaller below), so 5 % is safe.
     sparse, edges = sparse_defocus_map(_noisy_edge(sigma, seed=11))
     values = sparse[np.isfinite(sparse)]
     assert values.size > 200
@@ -33,7 +33,7 @@ def test_zhuo_sim_is_exact_without_noise():
         assert np.nanmedian(sparse) == pytest.approx(sigma, rel=0.005)
 
 
-def _tiles(shape, sigma, seed, tile=16, offset=8):
+def _tiles(shape, sigma, seed, tile=24, offset=12):
     """Mosaic of random-level square tiles (step patches), blurred by sigma and pixel-integrated exactly."""
     rng = np.random.default_rng(seed)
     h, w = shape
@@ -48,7 +48,8 @@ def _tiles(shape, sigma, seed, tile=16, offset=8):
 
 @pytest.fixture(scope="module")
 def two_region_scene():
-    """Left half blurred by sigma 1.5, right half by 3 (same tiles), SNR about 250."""
+    """Left half blurred by sigma 1.5, right half by 3 (same 24 px tiles, the seam inside a tile column), noise
+    0.004 for tile steps of 0 to 1."""
     shape = (128, 128)
     img = _tiles(shape, 1.5, seed=0)
     img[:, 64:] = _tiles(shape, 3.0, seed=0)[:, 64:]
@@ -57,8 +58,8 @@ def two_region_scene():
 
 @pytest.mark.parametrize("method", ["matting", "guided", "fgs"])
 def test_two_region_defocus_map(two_region_scene, method):
-    # Region medians within 15 % (the brief's tolerance); 8 px on each side of the seam are left out because the
-    # propagation needs about one tile to change level there.
+    # Region medians within 15 % (the brief's tolerance; junction bias and propagation across the seam take a few
+    # per cent). 8 px on each side of the seam are left out: the map needs about one tile to change level there.
     dmap = defocus_map(two_region_scene, method=method)
     assert dmap.shape == two_region_scene.shape and np.all(np.isfinite(dmap))
     assert np.median(dmap[:, :56]) == pytest.approx(1.5, rel=0.15)

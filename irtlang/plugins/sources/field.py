@@ -1,7 +1,8 @@
 """SOURCE FIELD angle_x angle_y
 
-Collimated rays from the preceding GRID, tilted from the grid's +axis by field angles: the direction is
-normalize(tan(angle_x), tan(angle_y), 1) in the grid's local frame.
+Collimated rays from the preceding GRID, tilted by field angles from the grid's axis, travelling toward
+the plane (axis) = 0 (a grid at z = 1200 sends rays along -z, one at z = -100 along +z; at 0, along +z):
+the direction is normalize(tan(angle_x), tan(angle_y), s) in the grid's local frame, s = -1 or +1.
 
 | parameter | unit | meaning |
 |---|---|---|
