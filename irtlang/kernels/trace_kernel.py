@@ -493,8 +493,14 @@ def trace_batch(first, n, total, seed, level, halt,
                 ev += 1
                 evkind = EV_A
                 if w > 0.0:
-                    u, _u = uniform2(seed, i, ev, 0)
-                    if u * (R + T) < R:
+                    if T == 0.0:
+                        reflect = True
+                    elif R == 0.0:
+                        reflect = False
+                    else:
+                        u, _u = uniform2(seed, i, ev, 0)
+                        reflect = u * (R + T) < R
+                    if reflect:
                         led[c, o, C_REF, line] += w
                         dx = dx + 2.0 * ci * nwx
                         dy = dy + 2.0 * ci * nwy

@@ -7,7 +7,7 @@ Values are ``Quantity`` (canonical units, or bare) or ``str``.  Rules:
 * ``* /``: dimensions multiply; a bare operand is a pure scale factor. ``^`` needs a pure exponent.
 * ``sin cos tan`` read a bare argument as degrees; ``asin acos atan atan2`` return angles (shown in deg).
 * ``floor ceil round`` act on the value in its display unit (``floor(2.5 mm)`` is 2 mm with UNITS MM).
-* Comparisons and AND/OR/NOT give 1 or 0.
+* Comparisons and AND/OR/NOT give 1 or 0; comparisons treat values within a relative 1e-12 as equal.
 """
 from __future__ import annotations
 

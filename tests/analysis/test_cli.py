@@ -123,3 +123,14 @@ def test_wiring_into_another_program(capsys, tmp_path):
     args = parser.parse_args(["analyze", "psf", str(tmp_path / "p.npy"), "--json"])
     assert run(args) == 0
     assert "fwhm" in json.loads(capsys.readouterr().out)
+
+
+def test_fits_and_csv_images(tmp_path):
+    from analysis import load_image
+
+    img = _gaussian_psf()
+    np.savetxt(tmp_path / "p.csv", img, delimiter=",")
+    np.testing.assert_allclose(load_image(tmp_path / "p.csv"), img)
+    fits = pytest.importorskip("astropy.io.fits")
+    fits.PrimaryHDU(img).writeto(tmp_path / "p.fits")
+    np.testing.assert_allclose(load_image(tmp_path / "p.fits"), img)

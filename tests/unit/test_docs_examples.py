@@ -149,3 +149,51 @@ def test_fixture_files_exist():
     for name in ("water.csv", "grass.csv", "landcover.npy", "clouds.npy", "baffle.stl", "run.h5", "telescope.inr"):
         assert (EXAMPLES / name).is_file(), name
     assert (EXAMPLES / "baffle.stl").read_text().startswith("solid"), "baffle.stl is committed as ASCII STL"
+
+
+# ---------------------------------------------------------------- behaviour the reference states
+def _ok(text: str) -> Interpreter:
+    it, diags = check_script(text, "<doc claim>")
+    assert not diags, "\n".join(d.render() for d in diags)
+    return it
+
+
+def test_display_unit_rounding_and_round_half_away():
+    it = _ok("a = floor(2.5 mm)\nUNITS CM\nb = floor(25 mm)\nc = round(2.5)\nd = round(-2.5)\ne1 = round(2.4)")
+    v = lambda n: it.lookup(n).value
+    assert v("a") == pytest.approx(0.002) and v("b") == pytest.approx(0.02)
+    assert (v("c"), v("d"), v("e1")) == (3.0, -3.0, 2.0)
+
+
+def test_trailing_unit_within_one_list_only():
+    it = _ok("SURFACE\n  SPHERE 1 2 3 6371 km\nOBJECT s\n  SHIFT 1 2 3 cm\nGRID DISK Z 0 1 RAYS 10\n"
+             "SOURCE FIELD 0.05 0.02 mrad")
+    s = it.state.objects["S"]
+    assert s.surfaces[0].frame.T == pytest.approx((0.001, 0.002, 0.003))   # the centre stays in mm
+    assert s.surfaces[0].params["radius"] == pytest.approx(6.371e6)
+    assert s.transform.T == pytest.approx((0.01, 0.02, 0.03))
+    d = it.state.sources[0].params["direction"]
+    assert (d["angle_x"], d["angle_y"]) == pytest.approx((5e-5, 2e-5))        # the pair shares its unit
+
+
+def test_system_new_keeps_variables_and_macros():
+    it = _ok("x = 5\nMACRO m\n  y = x + 1\nEND MACRO\nUNITS CM\nSURFACE\n  PLANE Z 0\nOBJECT a\nSYSTEM NEW\n"
+             "CALL m\nSURFACE\n  PLANE Z 0\nOBJECT a")
+    assert it.lookup("y").value == 6 and it.state.units == "MM"
+
+
+def test_wavelengths_rules():
+    _ok("UNITS UM\nWAVELENGTHS 0.45 0.55 0.65")
+    it = _ok("WAVELENGTHS RANGE 400nm 700nm 4")
+    assert it.state.wavelengths_nm == (400.0, 500.0, 600.0, 700.0)
+    _, d = check_script("WAVELENGTHS 450 550 650 NM\nSPECTRUM sun SOLAR\nWAVELENGTHS 400 500 600 NM", "x")
+    assert d and "after wavelength-dependent values" in d[0].message
+
+
+def test_print_output_and_formats():
+    lines: list[str] = []
+    it = Interpreter(out=lines.append)
+    it.run_text("i = 3\nPRINT 'angle' asin(0.5) 'length' (2 * 5 mm)\nPRINT 'baffle_{i:02d} {{i}} {PI:.3f}'\n"
+                "MACRO hello\n  PRINT 'hello'\nEND MACRO\nCALL hello\nPRINT", "<print>")
+    assert not it.diags
+    assert lines == ["angle 30 deg length 10 mm", "baffle_03 {i} 3.142", "hello", ""]

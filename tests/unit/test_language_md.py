@@ -519,8 +519,8 @@ def test_case_insensitive_keywords(base):
 
 
 def test_lines_semicolons_continuations_comments(base):
-    it = ok("d=1200 ; e = 5   !! two statements\nWAVELENGTHS 450 &\n   550 & !! a comment after &\n   650 NM", base)
-    assert it.lookup("d").value == 1200 and it.lookup("e").value == 5
+    it = ok("d=1200 ; f = 5   !! two statements\nWAVELENGTHS 450 &\n   550 & !! a comment after &\n   650 NM", base)
+    assert it.lookup("d").value == 1200 and it.lookup("f").value == 5
     assert it.state.wavelengths_nm == (450.0, 550.0, 650.0)
 
 
@@ -547,7 +547,7 @@ def test_per_line_values(base):
 def test_control_flow(base):
     it = ok("n = 0\nDO i = 1, 4\n  n = n + 1\nEND DO\nm = 0\nDO j = 1, 4, 2\n  m = m + j\nEND DO\n"
             "d = 1200\nIF (d > 1000) THEN\n  r = 1\nELSE IF (d > 10) THEN\n  r = 2\nELSE\n  r = 3\nEND IF\n"
-            "IF (d < 0) r = 4", base)
+            "IF (d < 0) STOP", base)
     assert it.lookup("n").value == 4 and it.lookup("m").value == 1 + 3 and it.lookup("r").value == 1
 
 
@@ -638,7 +638,7 @@ def test_conic_radius_sign(base):
 def test_rotate_right_handed(base):
     it = ok("SURFACE\n  PLANE Z 0\nOBJECT rz\nROTATE Z 90\nSURFACE\n  PLANE Z 0\nOBJECT rx\nROTATE X 90\n"
             "SURFACE\n  PLANE Z 0\nOBJECT ry\nROTATE Y 90\nSURFACE\n  PLANE Z 0\nOBJECT ra\nROTATE Z 90 ABOUT 1 0 0\n"
-            "SURFACE\n  PLANE Z 0\nOBJECT rr\nROTATE Z (PI / 2) rad", base)
+            "SURFACE\n  PLANE Z 0\nOBJECT rr\nROTATE Z 1.5707963267948966 rad", base)
     ap = lambda n, p: obj(it, n).transform.apply(p)
     assert ap("rz", (1, 0, 0)) == pytest.approx((0, 1, 0))    # x -> y about z
     assert ap("rx", (0, 1, 0)) == pytest.approx((0, 0, 1))    # y -> z about x
@@ -746,3 +746,20 @@ def test_maps(base):
     it = ok("MAP cover LATLON 'landcover.npy'\nMAP clouds LATLON DEFAULT CLOUD_FRACTION", base)
     assert it.state.maps["COVER"].path.endswith("landcover.npy")
     assert it.state.maps["CLOUDS"].dataset == "CLOUD_FRACTION"
+
+
+def test_apertures(base):
+    """`PLANE Z 0 RECT 10 5 !! half-widths; also DISK r, ANNULUS r_in r_out, ELLIPSE a b`"""
+    it = ok("SURFACE\n  PLANE Z 0 RECT 10 5\nOBJECT a\nSURFACE\n  PLANE Z 0 DISK 4\nOBJECT b\n"
+            "SURFACE\n  PLANE Z 0 ANNULUS 1 4\nOBJECT c\nSURFACE\n  PLANE Z 0 ELLIPSE 3 2\nOBJECT d", base)
+    ap = {n: obj(it, n).surfaces[0].aperture for n in "abcd"}
+    assert [(a.kind, a.params) for a in ap.values()] == [
+        ("RECT", pytest.approx((0.010, 0.005))), ("DISK", pytest.approx((0.004,))),
+        ("ANNULUS", pytest.approx((0.001, 0.004))), ("ELLIPSE", pytest.approx((0.003, 0.002)))]
+
+
+def test_comparisons_survive_unit_conversion(base):
+    """`asin(0.5)` is 30 degrees: comparing it with a bare 30 (read as degrees) is exact enough to be equal."""
+    it = ok("a = (asin(0.5) == 30)\nb = (asin(0.5) <= 30) AND (asin(0.5) >= 30)\nc = (acos(0.5) != 60)\n"
+            "dd = (25.4 mm == 1 in)", base)
+    assert [it.lookup(x).value for x in ("a", "b", "c", "dd")] == [1.0, 1.0, 0.0, 1.0]
