@@ -69,6 +69,14 @@ def check_roi(roi, shape, *, min_size=2):
     return slice(y, y + h), slice(x, x + w)
 
 
+def bilinear(img, x, y):
+    """Bilinear samples of ``img`` at positions (x, y) in px (pixel centres at integer coordinates, x along
+    columns); beyond the border the edge values continue."""
+    from scipy.ndimage import map_coordinates
+
+    return map_coordinates(img, [y, x], order=1, mode="nearest")
+
+
 def positive(value, name):
     """Return ``float(value)``, raising AnalysisError unless it is finite and > 0."""
     v = float(value)

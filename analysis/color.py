@@ -42,13 +42,18 @@ def srgb_encode(linear):
 
     ``12.92 c`` for ``c <= 0.0031308``, else ``1.055 c**(1/2.4) - 0.055``; inputs are clipped to [0, 1] first.
     ``srgb_encode(0.18) = 0.46136``.
+
+    Signature: ``srgb_encode(linear) -> array like linear``.
     """
     c = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
     return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1.0 / 2.4) - 0.055)
 
 
 def srgb_decode(encoded):
-    """Inverse of :func:`srgb_encode`: ``v/12.92`` for ``v <= 0.04045``, else ``((v + 0.055)/1.055)**2.4``."""
+    """Inverse of :func:`srgb_encode`: ``v/12.92`` for ``v <= 0.04045``, else ``((v + 0.055)/1.055)**2.4``.
+
+    Signature: ``srgb_decode(encoded) -> array like encoded``.
+    """
     v = np.clip(np.asarray(encoded, dtype=np.float64), 0.0, 1.0)
     return np.where(v <= 0.04045, v / 12.92, np.power((v + 0.055) / 1.055, 2.4))
 
@@ -143,6 +148,8 @@ def cie1931_cmf(wavelengths_nm):
     Each function is a sum of piecewise Gaussians ``w exp(-(l - m)^2 / (2 s^2))`` with ``s`` the lower width for
     ``l < m`` and the upper width otherwise. Accuracy against the tabulated CIE 1931 data is about 0.01-0.02 absolute
     (y-bar(555 nm) = 0.998).
+
+    Signature: ``cie1931_cmf(wavelengths_nm) -> (3, L) array``.
     """
     lam = np.asarray(wavelengths_nm, dtype=np.float64)
     out = np.zeros((3,) + lam.shape)
@@ -213,7 +220,9 @@ def spectrum_to_rgb(cube, wavelengths_nm, *, axis=0, white="E", normalize="max",
             raise AnalysisError(f"white must be 'E', 'D65' or a positive XYZ triple, got {white!r}")
         xyz = xyz @ _adaptation_matrix(w / w[1]).T
     linear = xyz @ XYZ_TO_LINEAR_SRGB.T
-    level = _white_level(linear, "max" if normalize == "max" else float(normalize), None)
+    if isinstance(normalize, str) and normalize != "max":
+        raise AnalysisError(f"normalize must be 'max' or a positive number, got {normalize!r}")
+    level = _white_level(linear, normalize, None)
     return to_uint8(_encode(linear / level, gamma))
 
 
@@ -234,6 +243,8 @@ def save_png(rgb, path):
     """Write an 8-bit image (H, W), (H, W, 3) RGB or (H, W, 4) RGBA to a PNG file, atomically.
 
     Float input in [0, 1] is converted with ``round(255 v)``. Returns the path.
+
+    Signature: ``save_png(rgb, path) -> Path``.
     """
     import cv2
 
@@ -251,6 +262,8 @@ def save_animation(frames, path, *, fps=10.0, loop=0):
 
     ``.gif``: animated GIF via Pillow (``loop`` = 0 repeats forever); ``.mp4``: MPEG-4 via ``cv2.VideoWriter``
     (fourcc ``mp4v``). ``fps`` is frames per second. Returns the path.
+
+    Signature: ``save_animation(frames, path, *, fps=10.0, loop=0) -> Path``.
     """
     frames = [_as_rgb8(f, f"frame {i}") for i, f in enumerate(frames)]
     if not frames:

@@ -4,9 +4,9 @@ disk-integrated spectra, time x wavelength maps and apparent albedo against a La
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import binary_erosion, map_coordinates, sobel
+from scipy.ndimage import binary_erosion, sobel
 
-from ._common import AnalysisError, as_image, check_finite, positive, same_shape
+from ._common import AnalysisError, as_image, bilinear, check_finite, positive, same_shape
 
 __all__ = [
     "lambert_phase", "lambert_sphere_flux", "apparent_albedo", "disk_metrics", "limb_points",
@@ -16,7 +16,10 @@ __all__ = [
 
 def lambert_phase(phase_angle_deg):
     """Lambert-sphere phase function ``Phi(a) = [sin a + (pi - a) cos a] / pi`` (a in degrees, 0..180);
-    Phi(0) = 1, Phi(90 deg) = 1/pi."""
+    Phi(0) = 1, Phi(90 deg) = 1/pi.
+
+    Signature: ``lambert_phase(phase_angle_deg) -> array``.
+    """
     a = np.radians(np.asarray(phase_angle_deg, dtype=np.float64))
     if np.any(~np.isfinite(a)) or np.any(a < 0) or np.any(a > np.pi + 1e-12):
         raise AnalysisError("phase angles must lie in [0, 180] degrees")
@@ -28,7 +31,10 @@ def lambert_sphere_flux(albedo, solar_irradiance, radius, distance, phase_angle_
 
     ``albedo`` A (Lambert albedo; geometric albedo is 2A/3), ``solar_irradiance`` E at the sphere (any unit, e.g.
     W m^-2 nm^-1; F has the same unit), ``radius`` R and observer ``distance`` d in one length unit,
-    ``phase_angle_deg`` a in degrees."""
+    ``phase_angle_deg`` a in degrees.
+
+    Signature: ``lambert_sphere_flux(albedo, solar_irradiance, radius, distance, phase_angle_deg) -> array``.
+    """
     ratio = positive(radius, "radius") / positive(distance, "distance")
     return (2.0 / 3.0) * np.asarray(albedo, dtype=np.float64) * np.asarray(solar_irradiance, dtype=np.float64) \
         * ratio**2 * lambert_phase(phase_angle_deg)
@@ -59,11 +65,6 @@ def apparent_albedo(flux, wavelength_nm=None, *, solar_irradiance, radius, dista
     if np.any(reference <= 0):
         raise AnalysisError("the Lambert sphere is dark at this phase angle (180 deg): albedo undefined")
     return f / reference
-
-
-def _sample(img, x, y):
-    """Bilinear samples of ``img`` at (x, y) px (pixel centres at integers), edge values beyond the border."""
-    return map_coordinates(img, [y, x], order=1, mode="nearest")
 
 
 def limb_points(image, *, threshold=0.02, limb_contrast=0.2, edge_level=0.5, profile_halfwidth=3.0, step=0.25):
@@ -97,24 +98,21 @@ def limb_points(image, *, threshold=0.02, limb_contrast=0.2, edge_level=0.5, pro
     s = np.arange(-profile_halfwidth, profile_halfwidth + step / 2, step)
     xs = ii[:, None] + s[None, :] * nx[:, None]
     ys = jj[:, None] + s[None, :] * ny[:, None]
-    prof = _sample(img, xs.ravel(), ys.ravel()).reshape(xs.shape)
+    prof = bilinear(img, xs.ravel(), ys.ravel()).reshape(xs.shape)
     inner = prof[:, int(round(1.0 / step))]  # 1 px from the inner end
-    outer = prof[:, -1]
-    sharp = inner - outer >= limb_contrast * top
-    pts = []
-    for k in np.nonzero(sharp)[0]:
-        p, half = prof[k], edge_level * inner[k]
-        above = p >= half
-        # outermost index still above half (from the inside), then interpolate to the next sample
-        idx = np.nonzero(above)[0]
-        i = idx[-1] if idx.size else None
-        if i is None or i + 1 >= s.size:
-            continue
-        t = s[i] + (p[i] - half) / (p[i] - p[i + 1]) * step if p[i] != p[i + 1] else s[i]
-        pts.append((ii[k] + t * nx[k], jj[k] + t * ny[k]))
+    sharp = inner - prof[:, -1] >= limb_contrast * top
+    prof, level = prof[sharp], edge_level * inner[sharp]
+    above = prof >= level[:, None]
+    last = s.size - 1 - np.argmax(above[:, ::-1], axis=1)  # outermost sample still at or above the level
+    ok = above.any(axis=1) & (last < s.size - 1)
+    rows, last = np.nonzero(ok)[0], last[ok]
+    p0, p1 = prof[rows, last], prof[rows, last + 1]
+    t = s[last] + (p0 - level[rows]) / (p0 - p1) * step
+    sel = np.nonzero(sharp)[0][rows]
+    pts = np.column_stack([ii[sel] + t * nx[sel], jj[sel] + t * ny[sel]])
     if len(pts) < 6:
         raise AnalysisError("too few sharp limb points: lower limb_contrast or check the image")
-    return np.array(pts), lit
+    return pts, lit
 
 
 def _fit_circle(pts):

@@ -52,7 +52,10 @@ def _detector(path, name):
 def load_array(spec):
     """Array from a file: ``.npy`` (no pickles), ``.csv``/``.txt`` (comma or whitespace separated, ``#``
     comments), FITS (primary or first image HDU; needs astropy), or a ray file ``FILE.h5[:DETECTOR[:LINE]]``
-    (the detector's ``sum`` cube (L, ny, nx), or one line of it)."""
+    (the detector's ``sum`` cube (L, ny, nx), or one line of it).
+
+    Signature: ``load_array(spec) -> ndarray``.
+    """
     path, det, line = _split_spec(spec)
     suffix = path.suffix.lower()
     if not path.is_file():
@@ -89,7 +92,10 @@ def load_array(spec):
 
 
 def load_image(spec):
-    """2-D image from a file (see :func:`load_array`); a cube (L, H, W) from a ray file is summed over lines."""
+    """2-D image from a file (see :func:`load_array`); a cube (L, H, W) from a ray file is summed over lines.
+
+    Signature: ``load_image(spec) -> (H, W) float array``.
+    """
     arr = np.asarray(load_array(spec), dtype=np.float64)
     if arr.ndim == 3 and _split_spec(spec)[0].suffix.lower() in _RAY_SUFFIXES:
         arr = arr.sum(axis=0)
@@ -99,7 +105,10 @@ def load_image(spec):
 
 
 def load_cube(spec):
-    """Image cube (L, H, W) and wavelengths in nm (or None) from a file; a ray file supplies its wavelength table."""
+    """Image cube (L, H, W) and wavelengths in nm (or None) from a file; a ray file supplies its wavelength table.
+
+    Signature: ``load_cube(spec) -> (cube (L, H, W), wavelengths_nm or None, sum2 or None)``.
+    """
     path, det, _ = _split_spec(spec)
     if path.suffix.lower() in _RAY_SUFFIXES:
         rf, d = _detector(path, det)

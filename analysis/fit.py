@@ -37,6 +37,8 @@ def image_metric(image, metric="esf_slope", roi=None, **kwargs):
     ``"esf_slope"``: :func:`analysis.esf_slope` in ``roi`` (1/px); ``"defocus"``: median of the Zhuo & Sim sparse
     blur (:func:`analysis.sparse_defocus_map`) over the edges inside ``roi`` (px); or a callable ``image -> float``.
     Extra keyword arguments go to the metric function.
+
+    Signature: ``image_metric(image, metric="esf_slope", roi=None, **kwargs) -> float``.
     """
     if callable(metric):
         return float(metric(image, **kwargs))

@@ -172,7 +172,10 @@ def slanted_edge_mtf(image, roi=None, *, oversample=4, edge_fit_degree=1, window
 
 def mtf50(freq, mtf, level=0.5):
     """Frequency (same unit as ``freq``) where the MTF first falls below ``level`` (default 0.5), by linear
-    interpolation between the two bracketing samples. Raises AnalysisError if it never does."""
+    interpolation between the two bracketing samples. Raises AnalysisError if it never does.
+
+    Signature: ``mtf50(freq, mtf, level=0.5) -> float``.
+    """
     freq = np.asarray(freq, dtype=np.float64)
     mtf = np.asarray(mtf, dtype=np.float64)
     if freq.shape != mtf.shape or freq.ndim != 1:

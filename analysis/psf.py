@@ -18,7 +18,10 @@ _HALF_DIAGONAL = np.sqrt(0.5)  # a pixel lies entirely on one side of a circle w
 
 def centroid(image):
     """Intensity-weighted centroid ``(x, y)`` of an image, in px (pixel (row j, col i) has its centre at
-    x = i, y = j)."""
+    x = i, y = j).
+
+    Signature: ``centroid(image) -> (x, y)``.
+    """
     img = as_image(image)
     total = img.sum()
     if total <= 0:
@@ -29,7 +32,10 @@ def centroid(image):
 
 def peak_value(image):
     """Sub-pixel peak value: least-squares quadratic surface over the 3 x 3 pixels around the brightest pixel,
-    evaluated at its stationary point if that is a maximum within 1 px; otherwise the brightest pixel value."""
+    evaluated at its stationary point if that is a maximum within 1 px; otherwise the brightest pixel value.
+
+    Signature: ``peak_value(image) -> float``.
+    """
     img = as_image(image)
     j, i = np.unravel_index(np.argmax(img), img.shape)
     best = float(img[j, i])
@@ -150,7 +156,11 @@ def ensquared_energy(image, pixel_pitch=1.0, half_widths=None, *, center=None, t
     """Ensquared-energy curve: energy inside the axis-aligned square of half-width ``half_widths[k]`` (unit of
     ``pixel_pitch``; the square's side is twice that) about ``center`` (default the centroid), divided by
     ``total`` (default the image sum). Exact for uniform square pixels (the pixel/square overlap is separable).
-    Default half-widths: 0 to the largest useful one in steps of 0.25 px. Returns ``(half_widths, fraction)``."""
+    Default half-widths: 0 to the largest useful one in steps of 0.25 px. Returns ``(half_widths, fraction)``.
+
+    Signature: ``ensquared_energy(image, pixel_pitch=1.0, half_widths=None, *, center=None,
+    total=None) -> (half_widths, fraction)``.
+    """
     img = as_image(image)
     pitch = positive(pixel_pitch, "pixel_pitch")
     cx, cy = _resolve_center(img, center)

@@ -27,6 +27,16 @@ _RAY_COLUMNS = {
 }
 
 
+def _check_column(name, arr, n, where):
+    """Raise AnalysisError unless ray column ``name`` has n rows and its documented trailing shape."""
+    tail = _RAY_COLUMNS[name][0]
+    ok = arr.ndim == 1 + len(tail) and arr.shape[0] == n and all(
+        t is None or t == size for t, size in zip(tail, arr.shape[1:]))
+    if not ok:
+        want = "".join(f", {'H' if t is None else t}" for t in tail)
+        raise AnalysisError(f"{where}/rays/{name} has shape {arr.shape}, expected ({n}{want})")
+
+
 @dataclass
 class Detector:
     """One detector of a ray file: ``sum`` and ``sum2`` (L, ny, nx) in W and W^2 (index [line, row, col], row 0 at
@@ -121,16 +131,12 @@ def read_rays(path):
         out = RayFile(attrs=attrs, wavelengths_nm=wl, objects=objects)
         if "rays" in fh:
             n = None
-            for col, (tail, dtype) in _RAY_COLUMNS.items():
+            for col, (_, dtype) in _RAY_COLUMNS.items():
                 if col not in fh["rays"]:
                     raise AnalysisError(f"{path}: missing dataset /rays/{col}")
                 arr = np.asarray(fh["rays"][col][()], dtype=dtype)
                 n = arr.shape[0] if n is None else n
-                ok = arr.ndim == 1 + len(tail) and arr.shape[0] == n and all(
-                    t is None or t == s for t, s in zip(tail, arr.shape[1:]))
-                if not ok:
-                    raise AnalysisError(f"{path}: /rays/{col} has shape {arr.shape}, expected ({n}"
-                                        + "".join(f", {'H' if t is None else t}" for t in tail) + ")")
+                _check_column(col, arr, n, f"{path}: ")
                 setattr(out, col, arr)
             if out.line.size and (out.line.min() < 0 or out.line.max() >= wl.size):
                 raise AnalysisError(f"{path}: /rays/line indexes beyond the {wl.size} wavelength lines")
@@ -179,23 +185,22 @@ def write_rays_v1(path, *, wavelengths_nm, objects=(), position=None, direction=
              "created_utc": created_utc or _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")}
     columns = None
     if position is not None:
-        pos = np.asarray(position, dtype=np.float64).reshape(-1, 3)
-        n = pos.shape[0]
+        pos = np.asarray(position, dtype=np.float64)
+        n = pos.shape[0] if pos.ndim else 0
         if direction is None or flux is None:
             raise AnalysisError("write_rays_v1: position needs direction and flux")
 
-        def col(value, default, dtype, tail=()):
-            arr = np.full((n,) + tail, default, dtype=dtype) if value is None else np.asarray(value, dtype=dtype)
-            return arr
-
-        columns = {"position": pos, "direction": col(direction, 0, np.float64).reshape(n, 3),
-                   "flux": col(flux, 0, np.float64).reshape(n), "line": col(line, 0, np.int32),
-                   "source": col(source, 0, np.int32), "object": col(object, -1, np.int32),
-                   "events": col(events, 0, np.int32), "flags": col(flags, 0, np.uint32),
-                   "history": col(history, -1, np.int32, (1,))}
-        for name, arr in columns.items():
-            if arr.shape[0] != n:
-                raise AnalysisError(f"write_rays_v1: {name} has {arr.shape[0]} rows for {n} rays")
+        given = {"position": pos, "direction": direction, "flux": flux, "line": line, "source": source,
+                 "object": object, "events": events, "flags": flags, "history": history}
+        defaults = {"object": -1, "history": -1}
+        columns = {}
+        for name, value in given.items():
+            dtype = _RAY_COLUMNS[name][1]
+            if value is None:
+                columns[name] = np.full((n, 1) if name == "history" else (n,), defaults.get(name, 0), dtype=dtype)
+            else:
+                columns[name] = np.asarray(value, dtype=dtype)
+                _check_column(name, columns[name], n, "write_rays_v1: ")
     with atomic_path(path) as tmp:
         with h5py.File(tmp, "w") as fh:
             fh.attrs.update(attrs)

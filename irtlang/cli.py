@@ -98,14 +98,15 @@ def _print_diags(e) -> None:
 
 def _load_check(path: str):
     """Check a script; returns the interpreter, or raises IrtError with every diagnostic."""
-    from .lang.diagnostics import Diagnostic, IrtError, NO_SPAN
+    from .lang.diagnostics import Diagnostic, IrtError, Source, Span
     from .lang.interp import check_file
 
     p = Path(path)
+    at = Span(Source(str(path), ""), 0, 0, 0, 0)  # renders as "PATH: error: ..." (not "<input>")
     if not p.exists():
-        raise IrtError(Diagnostic(NO_SPAN, f"no such file: {path}"))
+        raise IrtError(Diagnostic(at, f"no such file: {path}"))
     if p.is_dir():
-        raise IrtError(Diagnostic(NO_SPAN, f"{path} is a folder, not a script"))
+        raise IrtError(Diagnostic(at, f"{path} is a folder, not a script"))
     return check_file(p)
 
 

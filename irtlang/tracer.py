@@ -148,6 +148,7 @@ def run_trace(scene, *, seed: int, level: int, halt: float, until_error: float |
     passes = 0
     interrupted = False
     cap = 2 * chunk
+    rcap = 2 * chunk if records else 1
     try:
         while True:
             first_of_pass = passes * total
@@ -161,29 +162,37 @@ def run_trace(scene, *, seed: int, level: int, halt: float, until_error: float |
                     dep_idx = np.zeros((nch, cap), np.int64)
                     dep_w = np.zeros((nch, cap))
                     dep_n = np.zeros(nch, np.int64)
-                    nr = n if records else 1
-                    rec = dict(position=np.zeros((nr, 3)), direction=np.zeros((nr, 3)), flux=np.zeros(nr),
-                               line=np.zeros(nr, np.int32), source=np.zeros(nr, np.int32),
-                               object=np.zeros(nr, np.int32), events=np.zeros(nr, np.int32),
-                               flags=np.zeros(nr, np.uint32), history=np.zeros((nr if history else 1, H), np.int32))
-                    mod.trace_batch(first_of_pass + start, n, total, seed, level, halt,
+                    rec = dict(position=np.zeros((nch, rcap, 3)), direction=np.zeros((nch, rcap, 3)),
+                               flux=np.zeros((nch, rcap)), line=np.zeros((nch, rcap), np.int32),
+                               source=np.zeros((nch, rcap), np.int32), object=np.zeros((nch, rcap), np.int32),
+                               events=np.zeros((nch, rcap), np.int32), flags=np.zeros((nch, rcap), np.uint32),
+                               history=np.zeros((nch, rcap, H), np.int32))
+                    rec_n = np.zeros(nch, np.int64)
+                    mod.trace_batch(first_of_pass + start, n, total, seed, level, halt, pk.r_importance,
                                     pk.s_obj, pk.s_kind, pk.s_par, pk.s_asph, pk.s_nasph, pk.s_ap_kind, pk.s_ap,
                                     pk.s_R, pk.s_Th, pk.s_Tl, pk.s_size, pk.s_mesh, pk.m_node_off, pk.m_node_n,
                                     pk.m_tri_off, pk.m_tri_n, pk.bvh_bmin, pk.bvh_bmax, pk.bvh_child, pk.bvh_count,
                                     pk.bvh_tris, pk.bvh_ids, pk.bvh_fn, pk.o_itf, pk.o_coat, pk.o_back, pk.o_front,
-                                    pk.o_det, o_bc, o_br, pk.med_n, pk.med_alpha, pk.med_row, pk.coat_R, pk.coat_T,
+                                    pk.o_det, o_bc, o_br, pk.o_sc, pk.o_sc_n, pk.o_sc_tgt, pk.mod_kind, pk.mod_P,
+                                    pk.mod_slab, pk.med_n, pk.med_alpha, pk.med_row, pk.coat_R, pk.coat_T,
                                     pk.d_nx, pk.d_ny, pk.d_ext, d_off, pk.src_kind, pk.src_dir, pk.src_par,
                                     pk.src_R, pk.src_Th, pk.src_Tl, pk.src_n, pk.src_off, pk.src_w,
                                     pk.src_random, pk.src_toward, pk.src_pts, pk.src_pts_off, led, inc_sq,
                                     dep_idx, dep_w, dep_n, rec["position"], rec["direction"], rec["flux"],
                                     rec["line"], rec["source"], rec["object"], rec["events"], rec["flags"],
-                                    rec["history"])
-                    if np.all(dep_n >= 0):
+                                    rec["history"], rec_n)
+                    ok = True
+                    if np.any(dep_n < 0):
+                        cap *= 4   # a chunk overflowed its deposit list: trace the batch again with more room
+                        ok = False
+                    if records and np.any(rec_n < 0):
+                        rcap *= 4
+                        ok = False
+                    if ok:
                         break
-                    cap *= 4   # a chunk overflowed its deposit list: trace the batch again with more room
                 mod.reduce_batch(led, inc_sq, dep_idx, dep_w, dep_n, ledger, ledger_sq, img, img_sq)
                 if records:
-                    rec_parts.append(rec)
+                    rec_parts.append({k: np.concatenate([v[c, :rec_n[c]] for c in range(nch)]) for k, v in rec.items()})
                 start += n
                 done += n
                 prog.update(done)

@@ -52,9 +52,13 @@ class Features:
     precise: bool = False      # translations beyond 1e6 m: double-double positions
     records: bool = False
     history: bool = False
+    scatter: bool = False
+    importance: bool = False   # SCATTER ... TOWARD: next-event rays and the IMPORTANCE ledger row
+    bsdf_kinds: tuple = ()     # the scatter-model kinds the scene uses (their dispatch order)
 
     def key(self) -> str:
-        return "".join("1" if getattr(self, f) else "0" for f in self.__dataclass_fields__)
+        flags = "".join("1" if getattr(self, f) else "0" for f in self.__dataclass_fields__ if f != "bsdf_kinds")
+        return flags + ("_" + "-".join(k.lower() for k in self.bsdf_kinds) if self.bsdf_kinds else "")
 
 
 @dataclass
@@ -102,6 +106,14 @@ class Packed:
     med_row: np.ndarray             # (M,) ledger row of an absorbing medium, -1
     coat_R: np.ndarray              # (C, L)
     coat_T: np.ndarray
+    # scattering
+    o_sc: np.ndarray                # model index, -1
+    o_sc_n: np.ndarray              # RAYS
+    o_sc_tgt: np.ndarray            # TOWARD object, -1
+    mod_kind: np.ndarray            # index into features.bsdf_kinds
+    mod_P: np.ndarray               # (nM, PMAX, L)
+    mod_slab: np.ndarray
+    model_names: list
     # detectors (pixel grid in the surface's local x, y)
     d_obj: np.ndarray
     d_nx: np.ndarray
@@ -126,13 +138,17 @@ class Packed:
     emitted_W: np.ndarray = field(default_factory=lambda: np.zeros(0))   # per line
 
     @property
+    def r_importance(self) -> int:
+        return len(self.object_names) + len(self.absorbing_media) if self.features.importance else -1
+
+    @property
     def n_rows(self) -> int:
-        return len(self.object_names) + len(self.absorbing_media) + N_TERMINAL_ROWS
+        return len(self.object_names) + len(self.absorbing_media) + int(self.features.importance) + N_TERMINAL_ROWS
 
     @property
     def row_names(self) -> list:
         return (list(self.object_names) + [f"MEDIUM {self.medium_names[m]}" for m in self.absorbing_media]
-                + ["EMITTED", "ESCAPED", "HALTED", "LOST"])
+                + (["IMPORTANCE"] if self.features.importance else []) + ["EMITTED", "ESCAPED", "HALTED", "LOST"])
 
 
 def _dd_translate(R_parent, T_parent_hi, T_parent_lo, t_child):
@@ -209,10 +225,40 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
     o_det = np.full(nO, -1, np.int32)
     used_media = set()
     det_rows = []
+    # scattering: the models objects use, packed per line; dispatch order = registry order
+    from ..plugins.bsdfs import REGISTRY as BSDFS
+
+    o_sc = np.full(nO, -1, np.int32)
+    o_sc_n = np.ones(nO, np.int32)
+    o_sc_tgt = np.full(nO, -1, np.int32)
+    used_models: list = []
     for i, k in enumerate(obj_keys):
         obj = scene.objects[k]
+        if len(obj.scatter) > 1:
+            raise error(obj.scatter[1].span, f"object {obj.name} has more than one SCATTER")
         for sc in obj.scatter:
-            raise MissingFeature(sc.span, "SCATTER", "the scattering models (issue: scattering)")
+            if sc.map is not None:
+                raise MissingFeature(sc.span, "SCATTER MAP", "map-driven scattering (issue: scattering, maps)")
+            if sc.model not in used_models:
+                used_models.append(sc.model)
+            o_sc[i] = used_models.index(sc.model)
+            o_sc_n[i] = sc.rays
+            if sc.toward is not None:
+                o_sc_tgt[i] = obj_index[sc.toward]
+                feats.importance = True
+    kinds = [kk for kk in BSDFS if any(scene.models[m].kind == kk for m in used_models)]
+    feats.bsdf_kinds = tuple(kinds)
+    feats.scatter = bool(used_models)
+    blocks = [BSDFS[scene.models[m].kind].pack(scene.models[m].params, L) for m in used_models]
+    pmax = max([b.shape[0] for b in blocks] + [1])
+    mod_P = np.zeros((max(1, len(blocks)), pmax, L))
+    for j, b in enumerate(blocks):
+        mod_P[j, :b.shape[0]] = b
+    mod_kind = np.array([kinds.index(scene.models[m].kind) for m in used_models] or [0], np.int32)
+    mod_slab = np.array([int(getattr(BSDFS[scene.models[m].kind], "SLAB", False)) for m in used_models] or [0], np.int32)
+
+    for i, k in enumerate(obj_keys):
+        obj = scene.objects[k]
         itf = obj.interface
         if itf is None or itf.kind == "absorb":
             o_itf[i] = IF_ABSORB
@@ -331,6 +377,7 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
                   cat(3, np.int64, (0,)), cat(4, np.float64, (0, 9)), cat(5, np.int64, (0,)),
                   cat(6, np.float64, (0, 3)),
                   o_itf, o_coat, o_back, o_front, o_det, med_n, med_alpha, med_row, coat_R, coat_T,
+                  o_sc, o_sc_n, o_sc_tgt, mod_kind, mod_P, mod_slab, [scene.models[m].name for m in used_models],
                   d_obj, d_nx, d_ny, d_ext, [scene.objects[obj_keys[i]].name for i, _ in det_rows], **src)
 
 
@@ -412,7 +459,7 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
                 par[2:5] = p["axis"]
             n = p["rays"]
             if p.get("toward") is not None:
-                out["src_toward"][i] = obj_index[p["toward"]]
+                out["src_toward"][i] = obj_index[p["toward"].upper()]
         R, Th, Tl = world_frame(scene, frame, s.group)
         out["src_R"][i], out["src_Th"][i], out["src_Tl"][i] = R, Th, Tl
         out["src_n"][i] = n

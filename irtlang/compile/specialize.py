@@ -18,7 +18,33 @@ from pathlib import Path
 from .pack import Features
 
 _FLAGS = {"conic": "F_CONIC", "quadric": "F_QUADRIC", "mesh": "F_MESH", "refract": "F_REFRACT",
-          "absorb_media": "F_ABSORB_MEDIA", "precise": "F_PRECISE", "records": "F_RECORDS", "history": "F_HISTORY"}
+          "absorb_media": "F_ABSORB_MEDIA", "precise": "F_PRECISE", "records": "F_RECORDS", "history": "F_HISTORY",
+          "scatter": "F_SCATTER", "importance": "F_IMPORTANCE"}
+_FUNCS = ("sample", "eval", "albedo", "direct")
+_SIGS = {"sample": "P, k, wix, wiy, wiz, nx, ny, nz, u0, u1, u2",
+         "eval": "P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz", "albedo": "P, k, cos_i", "direct": "P, k, cos_i"}
+_NAMES = {"sample": "sample", "eval": "eval", "albedo": "albedo", "direct": "direct_transmission"}
+
+
+def bsdf_dispatch(kinds) -> str:
+    """Source of the BSDF dispatch functions for the scene's model kinds (registry order)."""
+    from ..plugins.bsdfs import REGISTRY
+
+    kinds = list(kinds) or ["LAMBERTIAN"]
+    lines = []
+    for j, kd in enumerate(kinds):
+        mod = REGISTRY[kd].__name__
+        for f in _FUNCS:
+            lines.append(f"from {mod} import {_NAMES[f]} as _{f}_{j}")
+    for f in _FUNCS:
+        lines += ["", "", "@numba.njit(cache=True)", f"def _bsdf_{f}(kind, {_SIGS[f]}):"]
+        for j in range(len(kinds)):
+            cond = "if" if j == 0 else "elif"
+            if j == len(kinds) - 1:
+                lines.append(f"    return _{f}_{j}({_SIGS[f]})")
+            else:
+                lines += [f"    {cond} kind == {j}:", f"        return _{f}_{j}({_SIGS[f]})"]
+    return "\n".join(lines) + "\n"
 _loaded: dict[str, object] = {}
 
 
@@ -30,9 +56,10 @@ def _kernel_dir() -> Path:
 
 
 def _sources_hash() -> str:
-    kdir = Path(__file__).resolve().parents[1] / "kernels"
+    """Hash of every source a generated kernel depends on (kernels and scatter-model plugins)."""
+    root = Path(__file__).resolve().parents[1]
     h = hashlib.sha256()
-    for p in sorted(kdir.glob("*.py")):
+    for p in sorted((root / "kernels").glob("*.py")) + sorted((root / "plugins" / "bsdfs").glob("*.py")):
         h.update(p.read_bytes())
     return h.hexdigest()[:12]
 
@@ -46,6 +73,9 @@ def kernel_module(features: Features):
     text = template
     for field, flag in _FLAGS.items():
         text = re.sub(rf"^{flag} = (True|False)$", f"{flag} = {bool(getattr(features, field))}", text, flags=re.M)
+    a = text.index("# ---- bsdf dispatch")
+    b = text.index("# ---- end of bsdf dispatch ----")
+    text = text[:a] + "# ---- bsdf dispatch (generated) ----\n" + bsdf_dispatch(features.bsdf_kinds) + text[b:]
     # the copy lives outside the package: make its relative imports absolute
     text = text.replace("from .", "from irtlang.kernels.")
     name = f"irt_trace_{key}_{_sources_hash()}"

@@ -33,17 +33,18 @@ The test is two-sided (no back-face culling). Barycentrics: P = (1 - u - v) v0 +
 Traversal
 ---------
 Explicit stack, nearest hit, near child first (by box entry distance); far children farther than the best
-hit so far are skipped. Box slabs use the robust bound of Ize (2013): the far slab distance is inflated by
+hit so far are skipped. Box slabs use the robust bound of Ize (2013): the far slab distance is inflated
 by 2 gamma_3 |t| so that a rounding error cannot cull a box the watertight triangle test would hit. A zero
-direction component is tested as "origin inside the slab" (no 1/0, no 0 * inf). ``hit_mesh_count`` also returns the number of
-nodes visited; ``mesh_crossings`` counts every triangle crossing in (tmin, tmax) (parity gives inside/outside
-for closed meshes).
+direction component is tested as "origin inside the slab" (no 1/0, no 0 * inf). ``hit_mesh_count`` also
+returns the number of nodes visited; ``mesh_crossings`` counts every triangle crossing in (tmin, tmax)
+(parity gives inside/outside for closed meshes). All kernels accept t strictly inside (tmin, tmax).
 
 Build
 -----
 Binned SAH (16 bins per axis, all 3 axes) over triangle centroids, leaves of <= ``leaf_size`` triangles (or up
-to ``MAX_LEAF`` when SAH prefers a leaf); below depth ``MEDIAN_DEPTH`` only median splits are made, which bounds
-the depth by ``MEDIAN_DEPTH + log2(F)`` (< ``STACK_SIZE``).
+to ``MAX_LEAF`` when SAH prefers a leaf); from depth ``MEDIAN_DEPTH`` on only median splits are made, which
+bounds the depth by ``MEDIAN_DEPTH + log2(F)`` (< ``STACK_SIZE``). The build is numba (numpy for the
+closed-mesh check); about 0.2 s for 100k triangles once compiled.
 """
 import math
 

@@ -57,7 +57,10 @@ perpendicular from the centre to the ray line (Haines et al., Ray Tracing Gems c
 ``C = (|o| - R)(|o| + R)``. ``hit_ellipsoid`` scales to the unit sphere (``o/(a,b,c)``, ``d/(a,b,c)``); the
 ray parameter is unchanged by this scaling, so t is in the caller's metric. ``hit_tube`` is the side wall of a
 frustum whose radius goes linearly from r1 at z1 to r2 at z2 (a cylinder when r1 == r2); roots outside
-[min(z1, z2), max(z1, z2)] are discarded.
+[min(z1, z2), max(z1, z2)] are discarded. The cone's quadric joins both nappes, whose roots crowd together
+near the apex, so each tube root gets one Newton step on the nappe's own equation rho(t) - r(z(t)) = 0
+(skipped near tangency). Remaining limitation: a ray through the apex itself is a double root, known to
+~sqrt(eps) along the ray, like any tangency.
 
 Self-intersection policy
 ------------------------
@@ -108,6 +111,9 @@ __all__ = [
     "first_after",
     "solve_quadratic",
     "normalize3",
+    "norm3",
+    "two_prod",
+    "disc",
 ]
 
 INF = np.inf

@@ -12,6 +12,8 @@ Conventions
   and a 64-bit key (two words) map to four 32-bit words, exactly as Random123's ``philox4x32_R(10, ctr, key)``
   (checked against its ``kat_vectors`` in ``tests/physics/test_rng.py``). Arguments are integers; only their
   low 32 bits are used. The words come back as ``np.uint32``.
+* Integer arguments are reinterpreted as uint64 (a negative int64 seed is its two's complement). From
+  Python, numba types ints as int64: pass a seed >= 2**63 as ``np.uint64(seed)``.
 * ``uniform2(seed, ray, event, dim)``: key = the 64-bit ``seed`` (low word k0, high word k1); counter =
   (ray & 0xffffffff, ray >> 32, event, dim). The four output words make two 64-bit integers
   ``(w0 << 32 | w1)`` and ``(w2 << 32 | w3)``; each keeps its top 53 bits, m, and becomes ``m * 2**-53``,

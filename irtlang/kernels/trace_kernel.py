@@ -16,6 +16,12 @@ Conventions
   ledger and its own deposit list, and chunks are reduced in id order after the parallel loop.
 * Interfaces choose reflection or transmission by Monte Carlo with probability R / (R + T) and keep the
   weight w (R + T): the absorbed share w A is booked exactly, so the ledger closes per event.
+* Scattering: an object with SCATTER MODEL m scatters by the model's own sampling (``RAYS n`` splits into n
+  paths).  With ``TOWARD target`` it also sends n rays toward the target's bounding sphere (next-event
+  estimation, exact weights f |cos| Omega / n), and the continuing path no longer counts when it arrives at
+  the target directly (straight through transmissions), since those rays already estimate that.  The
+  IMPORTANCE ledger row books minus the flux sent toward targets plus the direct arrivals they replace, so
+  the ledger still closes exactly; rays sent toward a target that miss it end where they end (ESCAPED, ...).
 * Russian roulette below ``halt`` x the starting weight: survival probability w / (halt w0), survivors get
   halt w0.  The booked HALTED flux is the killed weight minus the survivors' gain, so the ledger closes
   exactly while the estimate stays unbiased.
@@ -41,9 +47,13 @@ F_ABSORB_MEDIA = True
 F_PRECISE = True
 F_RECORDS = True
 F_HISTORY = True
+F_SCATTER = True
+F_IMPORTANCE = True
 # ---- end of features ----
 
 CHUNK = 1024
+SMAX = 256          # pending paths per source ray (splitting, rays toward a target)
+SW = 16             # stack entry: ph(3) pl(3) d(3) w w0 ev excl nee path flags, then the history
 # ledger columns
 C_INC, C_REF, C_TRA, C_SCA, C_ABS = 0, 1, 2, 3, 4
 # record flags
@@ -360,21 +370,74 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
     return s, line, phx, phy, phz, plx, ply, plz, dwx / m, dwy / m, dwz / m, w
 
 
+
+# ---- bsdf dispatch (rewritten by irtlang.compile.specialize for the models a scene uses) ----
+from irtlang.plugins.bsdfs.lambertian import albedo as _albedo_0
+from irtlang.plugins.bsdfs.lambertian import direct_transmission as _direct_0
+from irtlang.plugins.bsdfs.lambertian import eval as _eval_0
+from irtlang.plugins.bsdfs.lambertian import sample as _sample_0
+
+
+@numba.njit(cache=True)
+def _bsdf_sample(kind, P, k, wix, wiy, wiz, nx, ny, nz, u0, u1, u2):
+    return _sample_0(P, k, wix, wiy, wiz, nx, ny, nz, u0, u1, u2)
+
+
+@numba.njit(cache=True)
+def _bsdf_eval(kind, P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz):
+    return _eval_0(P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz)
+
+
+@numba.njit(cache=True)
+def _bsdf_albedo(kind, P, k, cos_i):
+    return _albedo_0(P, k, cos_i)
+
+
+@numba.njit(cache=True)
+def _bsdf_direct(kind, P, k, cos_i):
+    return _direct_0(P, k, cos_i)
+# ---- end of bsdf dispatch ----
+
 # ---------------------------------------------------------------------------------------------- the trace
+@numba.njit(cache=True)
+def _push(stack, sp, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w0, ev, excl, nee, path, flags, hist, H):
+    e = stack[sp]
+    e[0] = phx
+    e[1] = phy
+    e[2] = phz
+    e[3] = plx
+    e[4] = ply
+    e[5] = plz
+    e[6] = dx
+    e[7] = dy
+    e[8] = dz
+    e[9] = w
+    e[10] = w0
+    e[11] = ev
+    e[12] = excl
+    e[13] = nee
+    e[14] = path
+    e[15] = flags
+    for h in range(H):
+        e[SW + h] = hist[h]
+
+
 @numba.njit(cache=True, parallel=True)
-def trace_batch(first, n, total, seed, level, halt,
+def trace_batch(first, n, total, seed, level, halt, r_imp,
                 s_obj, s_kind, s_par, s_asph, s_nasph, s_ap_kind, s_ap, s_R, s_Th, s_Tl, s_size, s_mesh,
                 m_node_off, m_node_n, m_tri_off, m_tri_n, bmin, bmax, child, count, tris, ids, bvh_fn,
-                o_itf, o_coat, o_back, o_front, o_det, o_bc, o_br,
+                o_itf, o_coat, o_back, o_front, o_det, o_bc, o_br, o_sc, o_sc_n, o_sc_tgt,
+                mod_kind, mod_P, mod_slab,
                 med_n, med_alpha, med_row, coat_R, coat_T,
                 d_nx, d_ny, d_ext, d_off,
                 src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random, src_toward,
                 src_pts, src_pts_off,
                 led, inc_sq, dep_idx, dep_w, dep_n, rec_pos, rec_dir, rec_w, rec_line, rec_src, rec_obj, rec_ev,
-                rec_flags, rec_hist):
-    """Trace rays first .. first+n-1.  Per chunk c: led[c] (rows, 5, L), inc_sq[c] (rows, L), and deposits
-    dep_idx/dep_w[c, :dep_n[c]] (dep_n[c] = -1 when the chunk overflowed its deposit list).
-    Rows: objects, absorbing media, then EMITTED, ESCAPED, HALTED, LOST (last four)."""
+                rec_flags, rec_hist, rec_n):
+    """Trace source rays first .. first+n-1 with every path they spawn.  Per chunk c: led[c] (rows, 5, L),
+    inc_sq[c] (rows, L), deposits dep_idx/dep_w[c, :dep_n[c]] and records rec_*[c, :rec_n[c]] (one per
+    path end); a count of -1 marks a chunk that overflowed its list (the caller retries with more room).
+    Rows: objects, absorbing media, [IMPORTANCE], EMITTED, ESCAPED, HALTED, LOST (the last four)."""
     nrows = led.shape[1]
     r_emit = nrows - 4
     r_esc = nrows - 3
@@ -382,73 +445,46 @@ def trace_batch(first, n, total, seed, level, halt,
     r_lost = nrows - 1
     nchunks = (n + CHUNK - 1) // CHUNK
     cap = dep_idx.shape[1]
-    H = rec_hist.shape[1]
+    rcap = rec_w.shape[1]
+    H = rec_hist.shape[2]
     for c in numba.prange(nchunks):
         ndep = 0
+        nrec = 0
+        stack = np.empty((SMAX, SW + H))
+        hist = np.full(max(H, 1), -1.0)
         for ii in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             i = first + ii
             s, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w = _gen(
                 i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random,
                 src_toward, src_pts, src_pts_off, o_bc, o_br)
             led[c, r_emit, C_INC, line] += w
-            w0 = w
-            flags = 0
-            ev = 0
-            last = -1
-            hx = phx + plx
-            hy = phy + ply
-            hz = phz + plz
-            adx = dx
-            ady = dy
-            adz = dz
-            aw = w
-            if F_HISTORY:
+            for h in range(H):
+                hist[h] = -1.0
+            _push(stack, 0, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w, 0.0, -1.0, 0.0, 0.0, 0.0, hist, H)
+            sp = 1
+            npath = 1
+            while sp > 0:
+                sp -= 1
+                e = stack[sp]
+                phx = e[0]
+                phy = e[1]
+                phz = e[2]
+                plx = e[3]
+                ply = e[4]
+                plz = e[5]
+                dx = e[6]
+                dy = e[7]
+                dz = e[8]
+                w = e[9]
+                w0 = e[10]
+                ev = int(e[11])
+                excl = int(e[12])
+                nee = e[13] > 0.0
+                path = int(e[14])
+                flags = int(e[15])
                 for h in range(H):
-                    rec_hist[ii, h] = -1
-            if w == 0.0:
-                flags |= FL_ESCAPED
-            while w > 0.0:
-                if ev >= level:
-                    led[c, r_halt, C_ABS, line] += w
-                    flags |= FL_HALTED
-                    break
-                t, j, lx, ly, lz, face = _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, s_kind, s_par, s_asph,
-                                                  s_nasph, s_ap_kind, s_ap, s_R, s_Th, s_Tl, s_size, s_mesh,
-                                                  m_node_off, m_node_n, m_tri_off, m_tri_n, bmin, bmax, child,
-                                                  count, tris, ids)
-                if j < 0:
-                    led[c, r_esc, C_ABS, line] += w
-                    flags |= FL_ESCAPED
-                    break
-                k = s_kind[j]
-                nwx, nwy, nwz = _normal(j, k, lx, ly, lz, face, s_par, s_asph, s_nasph, s_R, bvh_fn)
-                o = s_obj[j]
-                ci = -(dx * nwx + dy * nwy + dz * nwz)
-                if not (math.isfinite(t) and math.isfinite(ci)):
-                    led[c, r_lost, C_ABS, line] += w
-                    flags |= FL_LOST
-                    break
-                front = ci > 0.0            # arriving on the side the normal points to
-                it = o_itf[o]
-                m1 = o_front[o] if front else o_back[o]
-                m2 = o_back[o] if front else o_front[o]
-                if F_ABSORB_MEDIA and it >= 2:
-                    a = med_alpha[m1, line]
-                    if a > 0.0:
-                        keep = math.exp(-a * t)
-                        led[c, med_row[m1], C_INC, line] += w
-                        led[c, med_row[m1], C_ABS, line] += w * (1.0 - keep)
-                        led[c, med_row[m1], C_TRA, line] += w * keep
-                        w *= keep
-                phx, plx = _adv(phx, plx, t, dx)
-                phy, ply = _adv(phy, ply, t, dy)
-                phz, plz = _adv(phz, plz, t, dz)
-                if not (math.isfinite(phx) and math.isfinite(phy) and math.isfinite(phz)):
-                    led[c, r_lost, C_ABS, line] += w
-                    flags |= FL_LOST
-                    break
-                led[c, o, C_INC, line] += w
-                inc_sq[c, o, line] += w * w
+                    hist[h] = e[SW + h]
+                last = -1
                 hx = phx + plx
                 hy = phy + ply
                 hz = phz + plz
@@ -456,97 +492,247 @@ def trace_batch(first, n, total, seed, level, halt,
                 ady = dy
                 adz = dz
                 aw = w
-                last = o
-                dd = o_det[o]
-                if dd >= 0:
-                    x0 = d_ext[dd, 0]
-                    x1 = d_ext[dd, 1]
-                    y0 = d_ext[dd, 2]
-                    y1 = d_ext[dd, 3]
-                    if lx >= x0 and lx <= x1 and ly >= y0 and ly <= y1:
-                        nx = d_nx[dd]
-                        ny = d_ny[dd]
-                        ix = min(nx - 1, int((lx - x0) / (x1 - x0) * nx))
-                        iy = min(ny - 1, int((ly - y0) / (y1 - y0) * ny))
-                        if ndep < cap:
-                            dep_idx[c, ndep] = d_off[dd] + (line * ny + iy) * nx + ix
-                            dep_w[c, ndep] = w
-                        ndep += 1
-                # the interface: R, T, A
-                if it == 0:
-                    R = 0.0
-                    T = 0.0
-                elif it == 1:
-                    R = 1.0
-                    T = 0.0
-                elif it == 2:
-                    R = coat_R[o_coat[o], line]
-                    T = coat_T[o_coat[o], line]
-                else:
-                    n1 = med_n[m1, line]
-                    n2 = med_n[m2, line]
-                    R = fresnel_unpolarized(abs(ci), n1, n2)
-                    T = 1.0 - R
-                A = 1.0 - R - T
-                led[c, o, C_ABS, line] += w * A
-                w *= (R + T)
-                ev += 1
-                evkind = EV_A
-                if w > 0.0:
-                    if T == 0.0:
-                        reflect = True
-                    elif R == 0.0:
-                        reflect = False
-                    else:
-                        u, _u = uniform2(seed, i, ev, 0)
-                        reflect = u * (R + T) < R
-                    if reflect:
-                        led[c, o, C_REF, line] += w
-                        dx = dx + 2.0 * ci * nwx
-                        dy = dy + 2.0 * ci * nwy
-                        dz = dz + 2.0 * ci * nwz
-                        flags |= FL_REFLECTED
-                        evkind = EV_R
-                    else:
-                        led[c, o, C_TRA, line] += w
-                        flags |= FL_TRANSMITTED
-                        evkind = EV_T
-                        if F_REFRACT and it == 3:
-                            n1 = med_n[m1, line]
-                            n2 = med_n[m2, line]
-                            if n1 != n2:
-                                dx, dy, dz, _tir = refract(dx, dy, dz, nwx, nwy, nwz, n1, n2)
-                    m = math.sqrt(dx * dx + dy * dy + dz * dz)
-                    dx /= m
-                    dy /= m
-                    dz /= m
-                if F_HISTORY and ev - 1 < H:
-                    rec_hist[ii, ev - 1] = o * 8 + evkind
-                # Russian roulette
-                if w > 0.0 and w < halt * w0:
-                    ur, _u = uniform2(seed, i, ev, 1)
-                    p = w / (halt * w0)
-                    if ur < p:
-                        led[c, r_halt, C_ABS, line] -= halt * w0 - w
-                        w = halt * w0
-                    else:
+                if w == 0.0:
+                    flags |= FL_ESCAPED
+                while w > 0.0:
+                    if ev >= level:
                         led[c, r_halt, C_ABS, line] += w
-                        w = 0.0
                         flags |= FL_HALTED
-            if F_RECORDS:
-                rec_pos[ii, 0] = hx
-                rec_pos[ii, 1] = hy
-                rec_pos[ii, 2] = hz
-                rec_dir[ii, 0] = adx
-                rec_dir[ii, 1] = ady
-                rec_dir[ii, 2] = adz
-                rec_w[ii] = aw
-                rec_line[ii] = line
-                rec_src[ii] = s
-                rec_obj[ii] = last
-                rec_ev[ii] = ev
-                rec_flags[ii] = flags
+                        break
+                    t, j, lx, ly, lz, face = _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, s_kind, s_par,
+                                                      s_asph, s_nasph, s_ap_kind, s_ap, s_R, s_Th, s_Tl, s_size,
+                                                      s_mesh, m_node_off, m_node_n, m_tri_off, m_tri_n, bmin, bmax,
+                                                      child, count, tris, ids)
+                    if j < 0:
+                        led[c, r_esc, C_ABS, line] += w
+                        flags |= FL_ESCAPED
+                        break
+                    k = s_kind[j]
+                    nwx, nwy, nwz = _normal(j, k, lx, ly, lz, face, s_par, s_asph, s_nasph, s_R, bvh_fn)
+                    o = s_obj[j]
+                    ci = -(dx * nwx + dy * nwy + dz * nwz)
+                    if not (math.isfinite(t) and math.isfinite(ci)):
+                        led[c, r_lost, C_ABS, line] += w
+                        flags |= FL_LOST
+                        break
+                    front = ci > 0.0            # arriving on the side the normal points to
+                    it = o_itf[o]
+                    m1 = o_front[o] if front else o_back[o]
+                    m2 = o_back[o] if front else o_front[o]
+                    if F_ABSORB_MEDIA and it >= 2:
+                        a = med_alpha[m1, line]
+                        if a > 0.0:
+                            keep = math.exp(-a * t)
+                            led[c, med_row[m1], C_INC, line] += w
+                            led[c, med_row[m1], C_ABS, line] += w * (1.0 - keep)
+                            led[c, med_row[m1], C_TRA, line] += w * keep
+                            w *= keep
+                    phx, plx = _adv(phx, plx, t, dx)
+                    phy, ply = _adv(phy, ply, t, dy)
+                    phz, plz = _adv(phz, plz, t, dz)
+                    if not (math.isfinite(phx) and math.isfinite(phy) and math.isfinite(phz)):
+                        led[c, r_lost, C_ABS, line] += w
+                        flags |= FL_LOST
+                        break
+                    if F_IMPORTANCE and excl == o:
+                        # a path whose direct arrival here is already counted by the rays sent TOWARD it
+                        led[c, r_imp, C_ABS, line] += w
+                        w = 0.0
+                        break
+                    led[c, o, C_INC, line] += w
+                    inc_sq[c, o, line] += w * w
+                    hx = phx + plx
+                    hy = phy + ply
+                    hz = phz + plz
+                    adx = dx
+                    ady = dy
+                    adz = dz
+                    aw = w
+                    last = o
+                    dd = o_det[o]
+                    if dd >= 0:
+                        x0 = d_ext[dd, 0]
+                        x1 = d_ext[dd, 1]
+                        y0 = d_ext[dd, 2]
+                        y1 = d_ext[dd, 3]
+                        if lx >= x0 and lx <= x1 and ly >= y0 and ly <= y1:
+                            nx = d_nx[dd]
+                            ny = d_ny[dd]
+                            ix = min(nx - 1, int((lx - x0) / (x1 - x0) * nx))
+                            iy = min(ny - 1, int((ly - y0) / (y1 - y0) * ny))
+                            if ndep < cap:
+                                dep_idx[c, ndep] = d_off[dd] + (line * ny + iy) * nx + ix
+                                dep_w[c, ndep] = w
+                            ndep += 1
+                    # the interface: specular R and T, absorbed A
+                    if it == 0:
+                        R = 0.0
+                        T = 0.0
+                    elif it == 1:
+                        R = 1.0
+                        T = 0.0
+                    elif it == 2:
+                        R = coat_R[o_coat[o], line]
+                        T = coat_T[o_coat[o], line]
+                    else:
+                        R = fresnel_unpolarized(abs(ci), med_n[m1, line], med_n[m2, line])
+                        T = 1.0 - R
+                    ev += 1
+                    evkind = EV_A
+                    sc = o_sc[o] if F_SCATTER else -1
+                    mk = 0
+                    Pm = mod_P[0]
+                    nvx = nwx if front else -nwx      # the normal on the incoming side
+                    nvy = nwy if front else -nwy
+                    nvz = nwz if front else -nwz
+                    cos_i = abs(ci)
+                    diffuse = 0.0
+                    if F_SCATTER and sc >= 0:
+                        mk = mod_kind[sc]
+                        Pm = mod_P[sc]
+                        Rb, Tb = _bsdf_albedo(mk, Pm, line, cos_i)
+                        if mod_slab[sc] == 1:
+                            # a slab model is the whole interaction; its direct transmission is the specular part
+                            Tdir = _bsdf_direct(mk, Pm, line, cos_i)
+                            R = 0.0
+                            T = Tdir
+                            diffuse = max(0.0, Rb + Tb - Tdir)
+                        else:
+                            rho = Rb + Tb
+                            R *= (1.0 - rho)
+                            T *= (1.0 - rho)
+                            diffuse = rho
+                        # rays sent toward the target (next-event estimation), exact weights
+                        tgt = o_sc_tgt[o]
+                        if F_IMPORTANCE and tgt >= 0 and not nee:
+                            nr = o_sc_n[o]
+                            for q in range(nr):
+                                cx = o_bc[tgt, 0] - phx - plx
+                                cy = o_bc[tgt, 1] - phy - ply
+                                cz = o_bc[tgt, 2] - phz - plz
+                                kx, ky, kz, cmax = _cone_to(0.0, 0.0, 0.0, cx, cy, cz, o_br[tgt])
+                                v0, v1 = uniform2(seed, i, ev, path * 64 + 8 + 2 * q)
+                                x, y, z = uniform_cone(v0, v1, cmax)
+                                t1x, t1y, t1z, t2x, t2y, t2z = onb(kx, ky, kz)
+                                ox_ = x * t1x + y * t2x + z * kx
+                                oy_ = x * t1y + y * t2y + z * ky
+                                oz_ = x * t1z + y * t2z + z * kz
+                                co = ox_ * nvx + oy_ * nvy + oz_ * nvz
+                                f = _bsdf_eval(mk, Pm, line, -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz)
+                                cw = w * f * abs(co) * TWO_PI * (1.0 - cmax) / nr
+                                if cw > 0.0 and sp < SMAX:
+                                    if F_HISTORY and ev - 1 < H:
+                                        hist[ev - 1] = o * 8 + EV_S
+                                    _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev, -1.0,
+                                          1.0, npath, FL_SCATTERED, hist, H)
+                                    sp += 1
+                                    npath += 1
+                                    led[c, r_imp, C_ABS, line] -= cw
+                        if nee:
+                            diffuse = 0.0      # rays aimed at a target follow only the specular parts
+                    tot = R + T + diffuse
+                    if tot <= 0.0:
+                        led[c, o, C_ABS, line] += w
+                        w = 0.0
+                    else:
+                        u, _u = uniform2(seed, i, ev, path * 64) if (R > 0.0) + (T > 0.0) + (diffuse > 0.0) > 1 \
+                            else (0.5, 0.5)
+                        x_ = u * tot
+                        if x_ < R:
+                            led[c, o, C_REF, line] += w * tot
+                            led[c, o, C_ABS, line] += w * (1.0 - tot)
+                            w *= tot
+                            dx = dx + 2.0 * ci * nwx
+                            dy = dy + 2.0 * ci * nwy
+                            dz = dz + 2.0 * ci * nwz
+                            flags |= FL_REFLECTED
+                            evkind = EV_R
+                            excl = -1
+                        elif x_ < R + T:
+                            led[c, o, C_TRA, line] += w * tot
+                            led[c, o, C_ABS, line] += w * (1.0 - tot)
+                            w *= tot
+                            flags |= FL_TRANSMITTED
+                            evkind = EV_T
+                            if F_REFRACT and it == 3:
+                                n1 = med_n[m1, line]
+                                n2 = med_n[m2, line]
+                                if n1 != n2:
+                                    dx, dy, dz, _tir = refract(dx, dy, dz, nwx, nwy, nwz, n1, n2)
+                                    excl = -1
+                        else:
+                            # diffuse scattering: the model's own sampling; RAYS n without TOWARD splits
+                            nsplit = o_sc_n[o] if o_sc_tgt[o] < 0 else 1
+                            wi_x = -dx
+                            wi_y = -dy
+                            wi_z = -dz
+                            wout = 0.0
+                            w_first = 0.0
+                            for q in range(nsplit):
+                                v0, v1 = uniform2(seed, i, ev, path * 64 + 1 + 2 * q)
+                                v2, _v = uniform2(seed, i, ev, path * 64 + 2 + 2 * q)
+                                sx, sy, sz, sw, sdelta = _bsdf_sample(mk, Pm, line, wi_x, wi_y, wi_z, nvx, nvy, nvz,
+                                                                      v0, v1, v2)
+                                cw = w * sw * tot / diffuse / nsplit
+                                wout += cw
+                                if q == 0:
+                                    dx = sx
+                                    dy = sy
+                                    dz = sz
+                                    w_first = cw
+                                elif cw > 0.0 and sp < SMAX:
+                                    if F_HISTORY and ev - 1 < H:
+                                        hist[ev - 1] = o * 8 + EV_S
+                                    _push(stack, sp, phx, phy, phz, plx, ply, plz, sx, sy, sz, cw, w0 / nsplit, ev,
+                                          o_sc_tgt[o], 0.0, npath, flags | FL_SCATTERED, hist, H)
+                                    sp += 1
+                                    npath += 1
+                                elif cw > 0.0:
+                                    led[c, r_lost, C_ABS, line] += cw   # no room on the stack: counted as lost
+                            led[c, o, C_SCA, line] += wout
+                            led[c, o, C_ABS, line] += w - wout
+                            w = w_first
+                            w0 = w0 / nsplit
+                            flags |= FL_SCATTERED
+                            evkind = EV_S
+                            excl = o_sc_tgt[o]
+                        if w > 0.0:
+                            m = math.sqrt(dx * dx + dy * dy + dz * dz)
+                            dx /= m
+                            dy /= m
+                            dz /= m
+                    if F_HISTORY and ev - 1 < H:
+                        hist[ev - 1] = o * 8 + evkind
+                    # Russian roulette
+                    if w > 0.0 and w < halt * w0:
+                        ur, _u = uniform2(seed, i, ev, path * 64 + 63)
+                        p = w / (halt * w0)
+                        if ur < p:
+                            led[c, r_halt, C_ABS, line] -= halt * w0 - w
+                            w = halt * w0
+                        else:
+                            led[c, r_halt, C_ABS, line] += w
+                            w = 0.0
+                            flags |= FL_HALTED
+                if F_RECORDS:
+                    if nrec < rcap:
+                        rec_pos[c, nrec, 0] = hx
+                        rec_pos[c, nrec, 1] = hy
+                        rec_pos[c, nrec, 2] = hz
+                        rec_dir[c, nrec, 0] = adx
+                        rec_dir[c, nrec, 1] = ady
+                        rec_dir[c, nrec, 2] = adz
+                        rec_w[c, nrec] = aw
+                        rec_line[c, nrec] = line
+                        rec_src[c, nrec] = s
+                        rec_obj[c, nrec] = last
+                        rec_ev[c, nrec] = ev
+                        rec_flags[c, nrec] = flags
+                        for h in range(H):
+                            rec_hist[c, nrec, h] = int(hist[h])
+                    nrec += 1
         dep_n[c] = ndep if ndep <= cap else -1
+        rec_n[c] = nrec if nrec <= rcap else -1
 
 
 @numba.njit(cache=True)

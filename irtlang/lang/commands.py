@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from . import ast as A
-from .diagnostics import IrtError, Span, did_you_mean, error
+from .diagnostics import Span, did_you_mean, error
 from .expr import evaluate, format_value
 from .spec import (Axis, Choice, Clause, Form, Name, Param, Path, PL, Ref, Rest, V, Variants, Vs, match_keyword,
                    nonneg, positive, unit_interval)
@@ -303,8 +303,8 @@ def _object(it, b, st):
     if blk is None:
         raise error(b.head_span, "OBJECT without SURFACE", "start the geometry with SURFACE")
     it.state.block = None
-    if blk.failed:
-        raise IrtError([])  # a surface of the block failed and was reported: no follow-on error
+    if blk.failed:  # a surface of the block failed: the object is not defined, without another error
+        raise it.follow_on(b.span, f"object {name} was not defined because one of its surfaces failed")
     if not blk.surfaces:
         raise error(b.span, f"object {name} has no surface", "put PLANE, CONIC, SPHERE, ... between SURFACE and OBJECT")
     it.fail("object", name)
@@ -313,13 +313,17 @@ def _object(it, b, st):
     it.state.current = name.upper()
 
 
+def _upper(name):
+    return name.upper() if name is not None else None
+
+
 def _current(it, b) -> M.SceneObject:
     key = it.state.current
     if key is None:
         raise error(b.head_span, f"{b.head} has no current object to modify",
                     "modifiers apply to the object of the last SURFACE ... OBJECT name; put it after OBJECT")
-    if key not in it.state.objects:
-        raise IrtError([])  # the current object's definition failed and was reported: skip its modifiers
+    if key not in it.state.objects:  # the current object's definition failed: skip its modifiers
+        raise it.follow_on(b.head_span, f"{b.head} has no object to modify: the last OBJECT failed")
     return it.state.objects[key]
 
 
@@ -343,7 +347,7 @@ def _interface(it, b, st):
 @command("SCATTER", Form((Variants("how", {
     "MODEL": Form((Ref("model", "model"),)),
     "MAP": Form((Ref("map", "map"),), (Clause("MODELS", (Param("models", "refs", None, ns="model"),), required=True),)),
-}),), (Clause("RAYS", (V("rays", integer=True, check=positive),)), Clause("TOWARD", (Ref("toward", "object"),)))),
+}),), (Clause("RAYS", (V("rays", integer=True, check=positive),)), Clause("TOWARD", (Name("toward"),)))),
     "geometry", "scatter at the current object with a model, or per map class")
 def _scatter(it, b, st):
     obj = _current(it, b)
@@ -354,9 +358,9 @@ def _scatter(it, b, st):
         if mod.transmits(model.params) and itf is not None and itf.kind in ("reflect", "absorb"):
             raise error(b.span_of("model"), f"model {model.name} transmits, but object {obj.name} is opaque "
                         f"(INTERFACE {itf.kind.upper()})", "give the object INTERFACE TRANSMIT or a model that only reflects")
-        spec = M.ScatterSpec(b["model"], None, (), b.get("rays", 1), b.get("toward"), b.span)
+        spec = M.ScatterSpec(b["model"], None, (), b.get("rays", 1), _upper(b.get("toward")), b.span)
     else:
-        spec = M.ScatterSpec(None, b["map"], tuple(b["models"]), b.get("rays", 1), b.get("toward"), b.span)
+        spec = M.ScatterSpec(None, b["map"], tuple(b["models"]), b.get("rays", 1), _upper(b.get("toward")), b.span)
     if spec.toward is not None and spec.toward == obj.name.upper():
         raise error(b.span, f"object {obj.name} cannot scatter TOWARD itself")
     _update(it, obj, scatter=obj.scatter + (spec,))
@@ -533,10 +537,15 @@ def _trace(it, b, st):
         raise error(b.span, "TRACE has no source", "define GRID + SOURCE, or EMITTING ..., before TRACE")
     if s.block is not None:
         raise error(b.span, "TRACE inside an open SURFACE block", "close it with OBJECT name first")
+    names = [o.name for o in s.objects.values()]
     for src in s.sources:
         t = src.params.get("toward")
-        if t is not None and t not in s.objects:
-            raise error(src.span, f"TOWARD target '{t}' does not exist")
+        if t is not None and t.upper() not in s.objects:
+            raise error(src.span, f"TOWARD target '{t}' is not an object", did_you_mean(t, names))
+    for obj in s.objects.values():
+        for sc in obj.scatter:
+            if sc.toward is not None and sc.toward not in s.objects:
+                raise error(sc.span, f"SCATTER ... TOWARD '{sc.toward}' is not an object", did_you_mean(sc.toward, names))
     _check_scene(it, b)
     it.step("TRACE", {"level": s.level, "halt": s.halt, "until_error": b.get("error"), "until_target": b.get("target")},
             b.span)

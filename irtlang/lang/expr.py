@@ -55,6 +55,9 @@ def evaluate(e, env: Env) -> Value:
             c = CONSTANTS.get(e.name.upper())
             if c is not None:
                 return c
+            failed = getattr(env, "failed_var", None)
+            if failed is not None:
+                failed(e.name, e.span)  # raises for a variable whose assignment failed: no cascade
             raise error(e.span, f"undefined variable '{e.name}'",
                         did_you_mean(e.name, list(env.names()) + list(CONSTANTS)))
         return v

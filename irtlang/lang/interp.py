@@ -95,6 +95,7 @@ class Interpreter(BindContext):
         self.sources: list[Source] = []
         self.base_dir = Path.cwd()
         self.env = Env(self.lookup, lambda: self.state.units, self.variable_names)
+        self.env.failed_var = self._failed_var
         self._cmd_span: Span | None = None
         from . import commands
 
@@ -111,10 +112,6 @@ class Interpreter(BindContext):
     def run_source(self, src: Source) -> None:
         self.sources.append(src)
         prog = parse_source(src, self.is_macro_head)
-        # failures are silenced only within one pass (a later REPL line hears "undefined ...")
-        self.state.failed.clear()
-        self.failed_vars.clear()
-        self.wavelengths_failed = False
         try:
             self.exec_block(prog.stmts)
             self.finish()
@@ -154,9 +151,11 @@ class Interpreter(BindContext):
             if k in fr:
                 return fr[k][1]
         v = self.globals.get(k)
-        if v is None and k in self.failed_vars:
-            raise IrtError([])  # its assignment failed and was reported: no follow-on error
         return v[1] if v else None
+
+    def _failed_var(self, name: str, span: Span) -> None:
+        if name.upper() in self.failed_vars:
+            raise self.follow_on(span, f"variable '{name}' has no value: its assignment failed")
 
     def is_variable(self, name: str) -> bool:
         k = name.upper()
@@ -332,12 +331,19 @@ class Interpreter(BindContext):
         if k in table:
             return k
         if (ns, k) in self.state.failed:
-            raise IrtError([])  # its definition failed and was reported: no follow-on error
+            raise self.follow_on(span, f"{ns} '{name}' was not defined because its definition failed")
         elsewhere = [n for n in NAMESPACES if n != ns and k in self._table(n)]
         hint = did_you_mean(name, [v.name for v in table.values()])
         if elsewhere:
             raise error(span, f"'{name}' is a {elsewhere[0]}, not a {ns}", hint)
         raise error(span, f"undefined {ns} '{name}'", hint)
+
+    def follow_on(self, span: Span, message: str) -> IrtError:
+        """The error for a use of something whose definition failed: nothing more while that failure is in
+        this report (no cascade), else (a later REPL line) a message that says why."""
+        if self.diags:
+            return IrtError([])
+        return error(span, message + " (see the earlier error)")
 
     def _table(self, ns: str) -> dict:
         st = self.state

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Sequence
 
 from . import ast as A
-from .diagnostics import IrtError, Span, did_you_mean, error
+from .diagnostics import Span, did_you_mean, error
 from .units import Dim, NONE, Quantity, dim_name
 
 # ---------------------------------------------------------------- declarations
@@ -432,8 +432,8 @@ def _bind_param(p: Param, cur: _Cursor, ctx, b: Bound, stop_kws: list, where: st
         if len(vals) == 1:
             vals = vals * n
         elif len(vals) != n:
-            if getattr(ctx, "wavelengths_failed", False):
-                raise IrtError([])  # the WAVELENGTHS that failed (and was reported) probably had this many
+            if getattr(ctx, "wavelengths_failed", False):  # the WAVELENGTHS that failed probably had this many
+                raise ctx.follow_on(sp, f"{where}: {len(vals)} values for {p.label}, but the last WAVELENGTHS failed")
             raise error(sp, f"{where}: {len(vals)} values for {p.label}, but WAVELENGTHS has {n} line"
                         + ("s" if n != 1 else ""), "give one value for all lines, or one per line")
         b.values[p.label] = PerLine(tuple(vals))

@@ -105,3 +105,22 @@ def test_difference_map():
     np.testing.assert_allclose(difference_map(a, b, relative=True), (a - 2.0) / 2.0)
     with pytest.raises(AnalysisError, match="different shapes"):
         difference_map(a, b[:, :3])
+
+
+def test_conjugate_gradients_match_a_direct_solve():
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import spsolve
+
+    from analysis.defocus import _pcg
+
+    rng = np.random.default_rng(4)
+    lap = matting_laplacian(rng.uniform(size=(20, 24)))
+    weight = (rng.uniform(size=lap.shape[0]) < 0.1).astype(float)
+    a = (lap + sp.diags(weight)).tocsr()
+    b = weight * rng.uniform(1, 3, lap.shape[0])
+    direct = spsolve(a.tocsc(), b)
+    inv_diag = 1.0 / a.diagonal()
+    x = _pcg(a, b, np.zeros_like(b), lambda v: inv_diag * v, 1e-10, 5000)
+    np.testing.assert_allclose(x, direct, rtol=1e-6, atol=1e-8)
+    with pytest.warns(RuntimeWarning, match="stopped after 3 iterations"):
+        _pcg(a, b, np.zeros_like(b), lambda v: v, 1e-12, 3)

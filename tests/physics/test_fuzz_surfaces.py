@@ -10,10 +10,12 @@ from irtlang.kernels import geometry as G
 from irtlang.kernels.optics import fresnel_unpolarized, reflect, refract
 from irtlang.kernels.sampling import hg_sample, onb
 
-SETTINGS = settings(max_examples=400, deadline=None, derandomize=True,
+SETTINGS = settings(max_examples=300, deadline=None, derandomize=True,
                     suppress_health_check=[HealthCheck.too_slow])
 
-unit = st.floats(-1.0, 1.0, allow_nan=False, allow_infinity=False, allow_subnormal=False)
+# components are 0 or of magnitude 1e-12 .. 1 (the scale factor below spans 1e-9 .. 1e12); smaller
+# non-zero components only produce hits beyond 1e200, where a squared coordinate overflows the check itself
+unit = st.one_of(st.just(0.0), st.floats(1e-12, 1.0), st.floats(-1.0, -1e-12))
 vec = st.tuples(unit, unit, unit)
 scale_exp = st.integers(-9, 12)
 dir_mag = st.sampled_from([1e-3, 1.0, 7.3, 1e3])

@@ -383,17 +383,22 @@ SIMPLE = st.one_of(
 )
 
 
+def _flatten(chunks):
+    return [stmt for chunk in chunks for stmt in chunk]
+
+
 def _block(depth: int):
-    body = st.lists(SIMPLE if depth >= 2 else st.one_of(SIMPLE, _block(depth + 1)), max_size=4)
+    """A DO, IF or GROUP block: a list of statements, each a list of parts."""
+    inner = SIMPLE.map(lambda s: [s]) if depth >= 2 else st.one_of(SIMPLE.map(lambda s: [s]), _block(depth + 1))
+    body = st.lists(inner, max_size=3).map(_flatten)
     do = st.tuples(st.just([["DO", "i", "=", "1,", "2"]]), body, st.just([["END", "DO"]]))
     iff = st.tuples(st.just([["IF", "(a > 0)", "THEN"]]), body,
-                    st.lists(st.just(["ELSE"]), max_size=1), body, st.just([["end", "if"]]))
+                    st.lists(st.just([["ELSE"]]), max_size=1).map(_flatten), body, st.just([["end", "if"]]))
     grp = st.tuples(st.just([["GROUP", "grp"]]), body, st.just([["END", "GROUP"]]))
-    return st.one_of(do, iff, grp).map(lambda parts: [("flat", s) for p in parts for s in p])
+    return st.one_of(do, iff, grp).map(_flatten)
 
 
-STATEMENTS = st.lists(st.one_of(SIMPLE.map(lambda s: [("flat", s)]), _block(0)), min_size=1, max_size=12).map(
-    lambda ls: [s for chunk in ls for _, s in chunk])
+STATEMENTS = st.lists(st.one_of(SIMPLE.map(lambda s: [s]), _block(0)), min_size=1, max_size=10).map(_flatten)
 
 
 @st.composite
