@@ -3,8 +3,9 @@
 Two regions of docs/language.md are generated, each between its markers:
 
 * ``<!-- BEGIN GENERATED: kinds -->`` ... ``<!-- END GENERATED: kinds -->``: one entry per plugin kind
-  (surfaces, scatter models, sources) from the module's docstring (synopsis, description, parameter
-  table), its signature (``FORM``) and its ``EXAMPLE``;
+  (surfaces, scatter models, sources) from the module's docstring (its synopsis line, the description up to
+  the parameter table, and the table; what follows the table is for developers and is left out), its
+  signature (``FORM``) and its ``EXAMPLE``;
 * ``<!-- BEGIN GENERATED: index -->`` ... ``<!-- END GENERATED: index -->``: the command index, one row
   per command of ``irtlang.lang.commands.TABLE`` with its usage lines.
 
@@ -66,15 +67,13 @@ def kinds_markdown() -> str:
         out.append(f"### {title}\n")
         out.append(f"{where} Registered kinds: " + ", ".join(f"`{k}`" for k in reg) + ".\n")
         for kind, mod in reg.items():
-            synopsis, desc, table, rest = _split_doc(mod.__doc__)
+            synopsis, desc, table, _notes = _split_doc(mod.__doc__)
             out.append(f"#### {kind}\n")
             out.append(f"`{synopsis}`\n")
             if desc:
                 out.append(desc + "\n")
             if table:
                 out.append(table + "\n")
-            if rest:
-                out.append(rest + "\n")
             use = _usage(mod, kind)
             out.append("Signature: " + "; ".join(f"`{u}`" for u in use) + "\n")
             ex = getattr(mod, "EXAMPLE", None) or FALLBACK_EXAMPLES.get(kind)

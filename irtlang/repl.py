@@ -78,23 +78,23 @@ class _LazyEngine:
             self.folder.write_manifest("repl session ended")
 
 
-def _ends_with_continuation(line: str) -> bool:
-    """Whether a line's code ends with '&' (quotes and a trailing '!!' comment understood)."""
+def _strip_comment(line: str) -> str:
+    """A line without its '!!' comment (a '!!' inside quotes is text)."""
     quote = None
-    code_end = len(line)
-    i = 0
-    while i < len(line):
-        c = line[i]
+    for i, c in enumerate(line):
         if quote:
             if c == quote:
                 quote = None
         elif c in "'\"":
             quote = c
         elif line.startswith("!!", i):
-            code_end = i
-            break
-        i += 1
-    return line[:code_end].rstrip().endswith("&") and quote is None
+            return line[:i]
+    return line
+
+
+def _ends_with_continuation(line: str) -> bool:
+    """Whether a line's code ends with '&' (quotes and a trailing '!!' comment understood)."""
+    return _strip_comment(line).rstrip().endswith("&")
 
 
 def _statement_text(line: str) -> str:
@@ -293,9 +293,8 @@ class ReplSession:
 
     # ------------------------------------------------------------ REPL-only commands
     def _repl_command(self, line: str) -> str | None:
-        code = line.split("!!", 1)[0].strip() if "'" not in line and '"' not in line else line
-        words = code.split()
-        if not words:
+        words = _strip_comment(line).split()
+        if not words or (len(words) > 1 and words[1].startswith("=")):   # `show = 3` is an assignment
             return None
         w0 = words[0].upper()
         if w0 in ("EXIT", "QUIT") and len(words) == 1:

@@ -53,6 +53,7 @@ class Features:
     records: bool = False
     history: bool = False
     scatter: bool = False
+    volume: bool = False       # scattering media (free-path sampling)
     importance: bool = False   # SCATTER ... TOWARD: next-event rays and the IMPORTANCE ledger row
     bsdf_kinds: tuple = ()     # the scatter-model kinds the scene uses (their dispatch order)
 
@@ -103,7 +104,14 @@ class Packed:
     # media and coatings (per line)
     med_n: np.ndarray               # (M, L)
     med_alpha: np.ndarray           # (M, L) 1/m
-    med_row: np.ndarray             # (M,) ledger row of an absorbing medium, -1
+    med_row: np.ndarray             # (M,) ledger row of an absorbing or scattering medium, -1
+    med_sig: np.ndarray             # (M, L) extinction of a VOLUME medium, 1/m
+    med_alb: np.ndarray             # (M, L) single-scattering albedo
+    med_g: np.ndarray               # (M, L) HG asymmetry
+    med_phase: np.ndarray           # (M,) 0 none, 1 Rayleigh, 2 HG
+    med_depol: np.ndarray           # (M,)
+    med_tgt: np.ndarray             # (M,) TOWARD object, -1
+    med_nee: np.ndarray             # (M,) RAYS toward the target per event
     coat_R: np.ndarray              # (C, L)
     coat_T: np.ndarray
     # scattering
@@ -277,8 +285,33 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
         if obj.detector is not None:
             o_det[i] = len(det_rows)
             det_rows.append((i, obj))
-    absorbing = [med_index[m] for m in sorted(used_media, key=med_keys.index) if np.any(med_alpha[med_index[m]] > 0)]
-    feats.absorb_media = bool(absorbing)
+    # scattering volumes
+    nM = len(med_keys)
+    med_sig = np.zeros((nM, L))
+    med_alb = np.ones((nM, L))
+    med_g = np.zeros((nM, L))
+    med_phase = np.zeros(nM, np.int32)
+    med_depol = np.zeros(nM)
+    med_tgt = np.full(nM, -1, np.int32)
+    med_nee = np.ones(nM, np.int32)
+    for k in med_keys:
+        vol = scene.media[k].params.get("volume") if scene.media[k].params else None
+        if vol is None or k not in used_media:
+            continue
+        m = med_index[k]
+        med_sig[m] = vol["extinction"]
+        med_alb[m] = vol["albedo"]
+        med_g[m] = vol["g"]
+        med_phase[m] = 1 if vol["phase"] == "RAYLEIGH" else 2
+        med_depol[m] = vol["depol"]
+        med_nee[m] = vol["rays"]
+        if vol["toward"] is not None:
+            med_tgt[m] = obj_index[vol["toward"]]
+            feats.importance = True
+        feats.volume = True
+    absorbing = [med_index[m] for m in sorted(used_media, key=med_keys.index)
+                 if np.any(med_alpha[med_index[m]] > 0) or np.any(med_sig[med_index[m]] > 0)]
+    feats.absorb_media = any(np.any(med_alpha[m] > 0) for m in absorbing)
     med_row = np.full(len(med_keys), -1, np.int32)
     for j, m in enumerate(absorbing):
         med_row[m] = nO + j
@@ -376,7 +409,8 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
                   cat(0, np.float64, (0, 3)), cat(1, np.float64, (0, 3)), cat(2, np.int64, (0, 2)),
                   cat(3, np.int64, (0,)), cat(4, np.float64, (0, 9)), cat(5, np.int64, (0,)),
                   cat(6, np.float64, (0, 3)),
-                  o_itf, o_coat, o_back, o_front, o_det, med_n, med_alpha, med_row, coat_R, coat_T,
+                  o_itf, o_coat, o_back, o_front, o_det, med_n, med_alpha, med_row, med_sig, med_alb, med_g, med_phase,
+                  med_depol, med_tgt, med_nee, coat_R, coat_T,
                   o_sc, o_sc_n, o_sc_tgt, mod_kind, mod_P, mod_slab, [scene.models[m].name for m in used_models],
                   d_obj, d_nx, d_ny, d_ext, [scene.objects[obj_keys[i]].name for i, _ in det_rows], **src)
 

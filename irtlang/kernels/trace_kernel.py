@@ -48,6 +48,7 @@ F_PRECISE = True
 F_RECORDS = True
 F_HISTORY = True
 F_SCATTER = True
+F_VOLUME = True
 F_IMPORTANCE = True
 # ---- end of features ----
 
@@ -217,15 +218,73 @@ def _normal(j, k, lx, ly, lz, face, s_par, s_asph, s_nasph, s_R, bvh_fn):
 # ---------------------------------------------------------------------------------------------- sources
 @numba.njit(cache=True)
 def _cone_to(px, py, pz, cx, cy, cz, r):
-    """Axis and cos of the half-angle of the cone from p that holds the sphere (c, r); cos = -1: all around."""
+    """Axis and 1 - cos(half-angle) of the cone from p that holds the sphere (c, r); 2: all around.
+    1 - cos is computed as s^2 / (1 + sqrt(1 - s^2)): exact for the tiny cones of a far target."""
     ax = cx - px
     ay = cy - py
     az = cz - pz
     d = math.sqrt(ax * ax + ay * ay + az * az)
     if d <= r or d == 0.0:
-        return 0.0, 0.0, 1.0, -1.0
+        return 0.0, 0.0, 1.0, 2.0
     s = r / d
-    return ax / d, ay / d, az / d, math.sqrt(max(0.0, 1.0 - s * s))
+    return ax / d, ay / d, az / d, s * s / (1.0 + math.sqrt(max(0.0, 1.0 - s * s)))
+
+
+@numba.njit(cache=True)
+def _cone_dir(u0, u1, omc, kx, ky, kz):
+    """A direction uniform in the cone about unit k with 1 - cos(half-angle) = omc."""
+    v = u0 * omc
+    ct = 1.0 - v
+    st = math.sqrt(max(0.0, v * (2.0 - v)))
+    ph = TWO_PI * u1
+    x = st * math.cos(ph)
+    y = st * math.sin(ph)
+    t1x, t1y, t1z, t2x, t2y, t2z = onb(kx, ky, kz)
+    return x * t1x + y * t2x + ct * kx, x * t1y + y * t2y + ct * ky, x * t1z + y * t2z + ct * kz
+
+
+@numba.njit(cache=True)
+def _phase(kind, g, gamma, mu):
+    """Phase function per steradian (normalized over 4 pi): Rayleigh with depolarization, or HG."""
+    if kind == 1:
+        return 3.0 / (4.0 * (1.0 + 2.0 * gamma)) * ((1.0 + 3.0 * gamma) + (1.0 - gamma) * mu * mu) / (4.0 * math.pi)
+    d = 1.0 + g * g - 2.0 * g * mu
+    return (1.0 - g * g) / (4.0 * math.pi * d * math.sqrt(d))
+
+
+@numba.njit(cache=True)
+def _phase_sample(kind, g, gamma, u):
+    """mu = cos(scattering angle) drawn from the phase function."""
+    if kind == 2:
+        if abs(g) < 1e-6:
+            return 2.0 * u - 1.0
+        q = (1.0 - g * g) / (1.0 - g + 2.0 * g * u)
+        return max(-1.0, min(1.0, (1.0 + g * g - q * q) / (2.0 * g)))
+    # Rayleigh: CDF(mu) = [a (mu + 1) + b (mu^3 + 1) / 3] / (2 a + 2 b / 3), Newton from a good start
+    a = 1.0 + 3.0 * gamma
+    b = 1.0 - gamma
+    target = u * (2.0 * a + 2.0 * b / 3.0)
+    mu = 2.0 * u - 1.0
+    for _ in range(30):
+        f = a * (mu + 1.0) + b * (mu * mu * mu + 1.0) / 3.0 - target
+        df = a + b * mu * mu
+        step = f / df
+        mu -= step
+        mu = max(-1.0, min(1.0, mu))
+        if abs(step) < 1e-15:
+            break
+    return mu
+
+
+@numba.njit(cache=True)
+def _turn(dx, dy, dz, mu, u):
+    """The direction at angle acos(mu) from d, azimuth 2 pi u."""
+    st = math.sqrt(max(0.0, 1.0 - mu * mu))
+    ph = TWO_PI * u
+    t1x, t1y, t1z, t2x, t2y, t2z = onb(dx, dy, dz)
+    x = st * math.cos(ph)
+    y = st * math.sin(ph)
+    return x * t1x + y * t2x + mu * dx, x * t1y + y * t2y + mu * dy, x * t1z + y * t2z + mu * dz
 
 
 @numba.njit(cache=True)
@@ -329,13 +388,9 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
             cx = o_bc[tgt, 0] - src_Th[s, 0] - src_Tl[s, 0]
             cy = o_bc[tgt, 1] - src_Th[s, 1] - src_Tl[s, 1]
             cz = o_bc[tgt, 2] - src_Th[s, 2] - src_Tl[s, 2]
-            kx, ky, kz, cmax = _cone_to(wx, wy, wz, cx, cy, cz, o_br[tgt])
-            x, y, z = uniform_cone(u2, u3, cmax)
-            t1x, t1y, t1z, t2x, t2y, t2z = onb(kx, ky, kz)
-            dwx = x * t1x + y * t2x + z * kx
-            dwy = x * t1y + y * t2y + z * ky
-            dwz = x * t1z + y * t2z + z * kz
-            omega = TWO_PI * (1.0 - cmax)
+            kx, ky, kz, omc = _cone_to(wx, wy, wz, cx, cy, cz, o_br[tgt])
+            dwx, dwy, dwz = _cone_dir(u2, u3, omc, kx, ky, kz)
+            omega = TWO_PI * omc
             c = dwx * nwx + dwy * nwy + dwz * nwz
             if kind == 4:
                 cmin = math.cos(par[1])
@@ -428,7 +483,8 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                 m_node_off, m_node_n, m_tri_off, m_tri_n, bmin, bmax, child, count, tris, ids, bvh_fn,
                 o_itf, o_coat, o_back, o_front, o_det, o_bc, o_br, o_sc, o_sc_n, o_sc_tgt,
                 mod_kind, mod_P, mod_slab,
-                med_n, med_alpha, med_row, coat_R, coat_T,
+                med_n, med_alpha, med_row, med_sig, med_alb, med_g, med_phase, med_depol, med_tgt, med_nee,
+                coat_R, coat_T,
                 d_nx, d_ny, d_ext, d_off,
                 src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random, src_toward,
                 src_pts, src_pts_off,
@@ -519,6 +575,69 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                     it = o_itf[o]
                     m1 = o_front[o] if front else o_back[o]
                     m2 = o_back[o] if front else o_front[o]
+                    if F_VOLUME and it >= 2 and med_sig[m1, line] > 0.0:
+                        sig = med_sig[m1, line]
+                        rm = med_row[m1]
+                        if nee:
+                            keep = math.exp(-sig * t)      # rays aimed at a target are only attenuated
+                            led[c, rm, C_INC, line] += w
+                            led[c, rm, C_ABS, line] += w * (1.0 - keep)
+                            led[c, rm, C_TRA, line] += w * keep
+                            w *= keep
+                        else:
+                            uf, ua = uniform2(seed, i, ev, path * 64 + 60)
+                            sdist = -math.log(uf) / sig
+                            if sdist < t:
+                                # a scattering event inside the volume, before the surface
+                                phx, plx = _adv(phx, plx, sdist, dx)
+                                phy, ply = _adv(phy, ply, sdist, dy)
+                                phz, plz = _adv(phz, plz, sdist, dz)
+                                alb = med_alb[m1, line]
+                                led[c, rm, C_INC, line] += w
+                                led[c, rm, C_SCA, line] += w * alb
+                                led[c, rm, C_ABS, line] += w * (1.0 - alb)
+                                w *= alb
+                                ev += 1
+                                pk = med_phase[m1]
+                                gg = med_g[m1, line]
+                                gam = med_depol[m1] / (2.0 - med_depol[m1])
+                                tgt = med_tgt[m1]
+                                if F_IMPORTANCE and tgt >= 0:
+                                    nr = med_nee[m1]
+                                    for q in range(nr):
+                                        cx = o_bc[tgt, 0] - phx - plx
+                                        cy = o_bc[tgt, 1] - phy - ply
+                                        cz = o_bc[tgt, 2] - phz - plz
+                                        kx, ky, kz, omc = _cone_to(0.0, 0.0, 0.0, cx, cy, cz, o_br[tgt])
+                                        v0, v1 = uniform2(seed, i, ev, path * 64 + 8 + 2 * q)
+                                        ox_, oy_, oz_ = _cone_dir(v0, v1, omc, kx, ky, kz)
+                                        mu_ = dx * ox_ + dy * oy_ + dz * oz_
+                                        cw = w * _phase(pk, gg, gam, mu_) * TWO_PI * omc / nr
+                                        if cw > 0.0 and sp < SMAX:
+                                            _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev,
+                                                  -1.0, 1.0, npath, FL_SCATTERED, hist, H)
+                                            sp += 1
+                                            npath += 1
+                                            led[c, r_imp, C_ABS, line] -= cw
+                                v0, v1 = uniform2(seed, i, ev, path * 64 + 61)
+                                mu_ = _phase_sample(pk, gg, gam, v0)
+                                dx, dy, dz = _turn(dx, dy, dz, mu_, v1)
+                                excl = tgt
+                                flags |= FL_SCATTERED
+                                if F_HISTORY and ev - 1 < H:
+                                    hist[ev - 1] = -2      # a volume event
+                                # roulette on the volume path too
+                                if w > 0.0 and w < halt * w0:
+                                    ur, _u = uniform2(seed, i, ev, path * 64 + 62)
+                                    p_ = w / (halt * w0)
+                                    if ur < p_:
+                                        led[c, r_halt, C_ABS, line] -= halt * w0 - w
+                                        w = halt * w0
+                                    else:
+                                        led[c, r_halt, C_ABS, line] += w
+                                        w = 0.0
+                                        flags |= FL_HALTED
+                                continue
                     if F_ABSORB_MEDIA and it >= 2:
                         a = med_alpha[m1, line]
                         if a > 0.0:
@@ -610,16 +729,12 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                 cx = o_bc[tgt, 0] - phx - plx
                                 cy = o_bc[tgt, 1] - phy - ply
                                 cz = o_bc[tgt, 2] - phz - plz
-                                kx, ky, kz, cmax = _cone_to(0.0, 0.0, 0.0, cx, cy, cz, o_br[tgt])
+                                kx, ky, kz, omc = _cone_to(0.0, 0.0, 0.0, cx, cy, cz, o_br[tgt])
                                 v0, v1 = uniform2(seed, i, ev, path * 64 + 8 + 2 * q)
-                                x, y, z = uniform_cone(v0, v1, cmax)
-                                t1x, t1y, t1z, t2x, t2y, t2z = onb(kx, ky, kz)
-                                ox_ = x * t1x + y * t2x + z * kx
-                                oy_ = x * t1y + y * t2y + z * ky
-                                oz_ = x * t1z + y * t2z + z * kz
+                                ox_, oy_, oz_ = _cone_dir(v0, v1, omc, kx, ky, kz)
                                 co = ox_ * nvx + oy_ * nvy + oz_ * nvz
                                 f = _bsdf_eval(mk, Pm, line, -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz)
-                                cw = w * f * abs(co) * TWO_PI * (1.0 - cmax) / nr
+                                cw = w * f * abs(co) * TWO_PI * omc / nr
                                 if cw > 0.0 and sp < SMAX:
                                     if F_HISTORY and ev - 1 < H:
                                         hist[ev - 1] = o * 8 + EV_S

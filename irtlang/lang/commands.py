@@ -155,13 +155,25 @@ def _index_check(x):
     return None if x > 0 else "must be > 0"
 
 
+_VOLUME = (
+    Clause("ABSORB", (PL("absorb", INV_LENGTH, check=nonneg),), doc="absorption coefficient (Beer's law)"),
+    Clause("VOLUME", (), doc="a scattering volume: needs EXTINCTION, takes ALBEDO, PHASE, G, DEPOL, RAYS, TOWARD"),
+    Clause("EXTINCTION", (PL("extinction", INV_LENGTH, check=nonneg),), doc="extinction coefficient of the volume"),
+    Clause("ALBEDO", (PL("albedo", check=unit_interval),), doc="single-scattering albedo (default 1)"),
+    Clause("PHASE", (Choice("phase", ("RAYLEIGH", "HG")),), doc="phase function (default RAYLEIGH)"),
+    Clause("G", (PL("g", check=lambda x: None if -1 < x < 1 else "must be in (-1, 1)"),), doc="HG asymmetry"),
+    Clause("DEPOL", (V("depol", check=lambda x: None if 0 <= x < 1 else "must be in [0, 1)"),),
+           doc="Rayleigh depolarization factor (default 0.0279)"),
+    Clause("RAYS", (V("rays", integer=True, check=positive),), doc="rays sent TOWARD the target per event"),
+    Clause("TOWARD", (Name("toward"),), doc="next-event rays from each volume scattering toward an object"),
+)
+
+
 @command("MEDIUM", Form((Name("name"), Variants("kind", {
-    "INDEX": Form((PL("index", check=_index_check),),
-                  (Clause("ABSORB", (PL("absorb", INV_LENGTH, check=nonneg),), doc="extinction coefficient"),)),
-    "SELLMEIER": Form((Vs("coefficients", n=6),),
-                      (Clause("ABSORB", (PL("absorb", INV_LENGTH, check=nonneg),)),)),
-    "TABLE": Form((Path("file"),), (Clause("ABSORB", (PL("absorb", INV_LENGTH, check=nonneg),)),)),
-}))), "materials", "a refractive medium: INDEX per line, SELLMEIER or TABLE")
+    "INDEX": Form((PL("index", check=_index_check),), _VOLUME),
+    "SELLMEIER": Form((Vs("coefficients", n=6),), _VOLUME),
+    "TABLE": Form((Path("file"),), _VOLUME),
+}))), "materials", "a medium: INDEX per line, SELLMEIER or TABLE; ABSORB; VOLUME scattering")
 def _medium(it, b, st):
     from ..io.tables import read_table
 
@@ -192,6 +204,27 @@ def _medium(it, b, st):
             absorb = tuple(4 * math.pi * kk / (w * 1e-9) for kk, w in zip(k, it.state.wavelengths_nm))
         params = {"file": str(path)}
         it.n_lines()
+    vol_keys = ("extinction", "albedo", "phase", "g", "depol", "rays", "toward")
+    if "volume" in b:
+        if "extinction" not in b:
+            raise error(b.spans["kw:VOLUME"], "a VOLUME medium needs EXTINCTION (per unit length)",
+                        "e.g. EXTINCTION (0.0971 / 1 km) for an optical depth of 0.0971 per km")
+        L = it.n_lines()
+        phase = b.get("phase", "RAYLEIGH")
+        if phase == "HG" and "g" not in b:
+            raise error(b.span_of("phase"), "PHASE HG needs G (the asymmetry parameter)")
+        if phase == "RAYLEIGH" and "g" in b:
+            raise error(b.spans["kw:G"], "G applies to PHASE HG, not RAYLEIGH")
+        params["volume"] = {"extinction": b["extinction"].values,
+                            "albedo": b["albedo"].values if "albedo" in b else (1.0,) * L,
+                            "phase": phase, "g": b["g"].values if "g" in b else (0.0,) * L,
+                            "depol": b.get("depol", 0.0279), "rays": b.get("rays", 1),
+                            "toward": b["toward"].upper() if "toward" in b else None}
+    else:
+        for key in vol_keys:
+            if key in b:
+                raise error(b.spans.get("kw:" + key.upper(), b.span), f"{key.upper()} belongs to a VOLUME medium",
+                            "add VOLUME to make the medium scatter")
     it.define("medium", name.upper(), M.Medium(name, kind.lower(), tuple(n), tuple(absorb), M.frozen_params(params), b.span), b.span)
 
 
@@ -542,6 +575,10 @@ def _trace(it, b, st):
         t = src.params.get("toward")
         if t is not None and t.upper() not in s.objects:
             raise error(src.span, f"TOWARD target '{t}' is not an object", did_you_mean(t, names))
+    for med in s.media.values():
+        t = med.params.get("volume", {}).get("toward") if med.params else None
+        if t is not None and t not in s.objects:
+            raise error(med.span, f"MEDIUM {med.name} ... TOWARD '{t}' is not an object", did_you_mean(t, names))
     for obj in s.objects.values():
         for sc in obj.scatter:
             if sc.toward is not None and sc.toward not in s.objects:

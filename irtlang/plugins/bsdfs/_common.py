@@ -1,0 +1,170 @@
+"""Helpers shared by the scatter-model plugins: albedo tables over cos_i, the single-scattering slab.
+
+Not a plugin (no KIND): the registry never imports it by name.
+
+Albedo tables
+-------------
+``albedo(P, k, cos_i)`` of the models whose hemispherical integrals have no closed form reads a table that
+``pack()`` fills with quadrature.  The nodes are uniform in ``t = sqrt(mu)`` on ``[t0, 1]``
+(``mu_k = t_k^2``): they crowd towards grazing incidence, where thin slabs and rough surfaces change
+fastest.  ``table_interp`` interpolates with the 4-point Lagrange polynomial in ``t`` (error O(h^4)) and
+holds the end values outside ``[t0^2, 1]``.
+
+Single-scattering slab (Ryu et al. 2017, eqs. 7-8)
+--------------------------------------------------
+With ``mu_s = |wi.n|`` (the light) and ``mu_v = |wo.n|`` (the viewer), reflectance factors
+
+    rho_R = w/4 P(Theta) G_R,   G_R = [1 - exp(-tau (1/mu_s + 1/mu_v))] / (mu_s + mu_v)
+    rho_T = w/4 P(Theta) G_T,   G_T = [exp(-tau/mu_v) - exp(-tau/mu_s)] / (mu_v - mu_s)
+
+and BRDF / BTDF = rho / pi.  ``G_T`` is the divided difference of ``exp(-tau/mu)`` and symmetric in
+(mu_s, mu_v); ``divided_exp`` evaluates it without cancellation as
+``exp(-tau/mu_hi) * tau/(mu_hi mu_lo) * phi(x)``, ``x = tau/mu_lo - tau/mu_hi >= 0``,
+``phi(x) = -expm1(-x)/x`` (``phi(0) = 1``), which tends to the limit ``tau/mu^2 exp(-tau/mu)`` at
+mu_v = mu_s; for x > 1 the direct quotient (no cancellation there) is used: both branches are the same
+analytic function, so the switch is continuous to rounding.
+"""
+import math
+
+import numba
+import numpy as np
+
+MU_MIN = 1e-9          # floor on every cosine in the kernels (grazing directions never give NaN or inf)
+INV_PI = 1.0 / math.pi
+INV_4PI = 0.25 / math.pi
+
+
+# ---------------------------------------------------------------- tables over cos_i
+def table_mu_nodes(nt: int, mu_lo: float = 0.0) -> np.ndarray:
+    """The cos_i nodes of an albedo table: uniform in sqrt(mu) from sqrt(mu_lo) to 1."""
+    t0 = math.sqrt(mu_lo)
+    t = t0 + (1.0 - t0) * np.arange(nt) / (nt - 1)
+    return np.maximum(t * t, MU_MIN)
+
+
+@numba.njit(cache=True, fastmath=False)
+def table_interp(P, k, row0, nt, t0, mu):
+    """Value at cos_i = mu of the table in rows row0 .. row0 + nt - 1 of column k (nodes: table_mu_nodes)."""
+    t = math.sqrt(min(1.0, max(0.0, mu)))
+    x = (t - t0) / (1.0 - t0) * (nt - 1)
+    if x <= 0.0:
+        return P[row0, k]
+    if x >= nt - 1:
+        return P[row0 + nt - 1, k]
+    i = int(x)
+    j = min(max(i - 1, 0), nt - 4)
+    s = x - j
+    # Lagrange weights on the nodes j, j+1, j+2, j+3 (local coordinate s in [0, 3])
+    l0 = -(s - 1.0) * (s - 2.0) * (s - 3.0) / 6.0
+    l1 = s * (s - 2.0) * (s - 3.0) / 2.0
+    l2 = -s * (s - 1.0) * (s - 3.0) / 2.0
+    l3 = s * (s - 1.0) * (s - 2.0) / 6.0
+    return l0 * P[row0 + j, k] + l1 * P[row0 + j + 1, k] + l2 * P[row0 + j + 2, k] + l3 * P[row0 + j + 3, k]
+
+
+# ---------------------------------------------------------------- slab geometry
+@numba.njit(cache=True, fastmath=False)
+def divided_exp(tau, m1, m2):
+    """[exp(-tau/m1) - exp(-tau/m2)] / (m1 - m2) >= 0, symmetric in (m1, m2); tau/m^2 exp(-tau/m) at m1 = m2."""
+    if tau <= 0.0:
+        return 0.0
+    hi = max(m1, m2, MU_MIN)
+    lo = max(min(m1, m2), MU_MIN)
+    a = tau / hi
+    x = tau / lo - a
+    if x > 1.0:
+        return math.exp(-a) * (-math.expm1(-x)) / (hi - lo)
+    phi = 1.0 if x <= 0.0 else -math.expm1(-x) / x
+    return math.exp(-a) * (tau / hi) / lo * phi
+
+
+@numba.njit(cache=True, fastmath=False)
+def slab_geometry(tau, mu_s, mu_v, reflect):
+    """G_R (reflect) or G_T: rho = w/4 P(Theta) G."""
+    mu_s = max(mu_s, MU_MIN)
+    mu_v = max(mu_v, MU_MIN)
+    if tau <= 0.0:
+        return 0.0
+    if reflect:
+        return -math.expm1(-tau * (1.0 / mu_s + 1.0 / mu_v)) / (mu_s + mu_v)
+    return divided_exp(tau, mu_s, mu_v)
+
+
+@numba.njit(cache=True, fastmath=False)
+def slab_direct(tau, cos_i):
+    """exp(-tau / cos_i): the unscattered share (0 at grazing incidence unless tau = 0)."""
+    if tau <= 0.0:
+        return 1.0
+    return math.exp(-tau / max(cos_i, MU_MIN))
+
+
+@numba.njit(cache=True, fastmath=False)
+def slab_delta_prob(tau, w, cos_i):
+    """(p_delta, q, norm, om): the probability with which sample() picks the unscattered beam, q = 1 - p_delta
+    (computed without cancellation), norm = e + w (1 - e) with e = exp(-tau/mu_s), and om = 1 - e.
+    p_delta = e / norm: the analog choice for w = 1; the delta's weight is then e / p_delta = norm."""
+    if tau <= 0.0:
+        return 1.0, 0.0, 1.0, 0.0
+    x = tau / max(cos_i, MU_MIN)
+    e = math.exp(-x)
+    om = -math.expm1(-x)
+    norm = e + w * om
+    if norm <= 0.0:
+        return 0.0, 0.0, 0.0, om
+    return e / norm, w * om / norm, norm, om
+
+
+# ---------------------------------------------------------------- slab albedo (numpy, for pack())
+def _divided_exp_np(tau, m1, m2):
+    hi = np.maximum(np.maximum(m1, m2), MU_MIN)
+    lo = np.maximum(np.minimum(m1, m2), MU_MIN)
+    a = tau / hi
+    x = tau / lo - a
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        big = np.exp(-a) * (-np.expm1(-x)) / (hi - lo)
+        phi = np.where(x > 0, -np.expm1(-x) / np.where(x > 0, x, 1.0), 1.0)
+        small = np.exp(-a) * (tau / hi) / lo * phi
+    out = np.where(x > 1.0, big, small)
+    return np.where(tau > 0, out, 0.0)
+
+
+def _slab_geometry_np(tau, mu_s, mu_v, reflect):
+    mu_s = np.maximum(mu_s, MU_MIN)
+    mu_v = np.maximum(mu_v, MU_MIN)
+    if reflect:
+        return -np.expm1(-tau * (1.0 / mu_s + 1.0 / mu_v)) / (mu_s + mu_v)
+    return _divided_exp_np(tau, mu_s, mu_v)
+
+
+def _graded_nodes(mu_s: float, n_gl: int = 12, levels: int = 40):
+    """Gauss-Legendre nodes and weights on (0, 1) in panels graded geometrically towards mu_s (and 1)."""
+    brk = {0.0, 1.0, mu_s}
+    for lv in range(1, levels + 1):
+        f = 0.5 ** lv
+        brk.add(mu_s * (1.0 - f))
+        brk.add(mu_s + (1.0 - mu_s) * f)
+        brk.add(1.0 - f)
+    b = np.array(sorted(x for x in brk if 0.0 <= x <= 1.0))
+    b = b[np.concatenate(([True], np.diff(b) > 1e-15))]
+    x, wq = np.polynomial.legendre.leggauss(n_gl)
+    a0, a1 = b[:-1, None], b[1:, None]
+    nodes = (a0 + a1) / 2 + (a1 - a0) / 2 * x[None, :]
+    weights = (a1 - a0) / 2 * wq[None, :]
+    return nodes.ravel(), weights.ravel()
+
+
+def slab_albedo(phase_avg, tau: float, w: float, mu_nodes: np.ndarray):
+    """(R_d, T_d) at each mu_s node: the scattered (non-delta) hemispherical reflectance and transmittance.
+
+    phase_avg(mu_s, mu_v, reflect) -> azimuthal mean of the phase function (normalized to mean 1) over the
+    ring of viewing directions with |wo.n| = mu_v on the reflection or transmission side.  With
+    dOmega = dmu_v dphi and BRDF = rho/pi:  R_d = (w/2) int_0^1 Pbar_R G_R mu_v dmu_v  (likewise T_d).
+    """
+    R = np.zeros(len(mu_nodes))
+    T = np.zeros(len(mu_nodes))
+    for i, ms in enumerate(mu_nodes):
+        mv, wq = _graded_nodes(float(ms))
+        for refl, out in ((True, R), (False, T)):
+            g = _slab_geometry_np(tau, ms, mv, refl)
+            out[i] = 0.5 * w * np.sum(wq * phase_avg(ms, mv, refl) * g * mv)
+    return R, T
