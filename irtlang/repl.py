@@ -428,11 +428,14 @@ class ReplSession:
                 itf = o.interface
                 s += f"  INTERFACE {itf.kind.upper()}"
                 if itf.coating:
-                    s += f" {st.coatings[itf.coating].name if itf.coating in st.coatings else itf.coating}"
+                    s += f" {_display(st.coatings, itf.coating)}"
                 if itf.kind in ("coating", "transmit"):
-                    s += f" {itf.back} {itf.front}"
+                    s += f" {_display(st.media, itf.back)} {_display(st.media, itf.front)}"
             for sc in o.scatter:
-                s += f"  SCATTER MODEL {sc.model}" if sc.model else f"  SCATTER MAP {sc.map}"
+                if sc.model:
+                    s += f"  SCATTER MODEL {_display(st.models, sc.model)}"
+                else:
+                    s += f"  SCATTER MAP {_display(st.maps, sc.map)}"
             if o.detector is not None:
                 s += f"  DETECTOR {o.detector.nx} x {o.detector.ny}"
             out.append(s)
@@ -538,6 +541,20 @@ class ReplSession:
             return ["ALL", "HIT", "LAST", "SCATTERED", "PATH", "WAVELENGTH", "AND", "OR", "NOT"]
         return form_keywords(commands.TABLE[head].form, words[1:])
 
+    def _names_after(self, first: str) -> list[str]:
+        """The defined names worth offering in a statement that starts with `first`."""
+        from .lang import commands
+
+        head = self._head(first)
+        if head is None:  # control flow (DO, IF, ...), an assignment, or a REPL command
+            return [] if first.upper() in ("SHOW", "HELP", "END", "ELSE") else [v[0] for v in self.interp.globals.values()]
+        kinds = _form_param_kinds(commands.TABLE[head].form)
+        if kinds & {"ref", "refs", "rest"}:
+            return self.defined_names()
+        if kinds & {"val", "vals", "perline"}:
+            return [v[0] for v in self.interp.globals.values()]
+        return []
+
     def complete(self, text: str) -> list[str]:
         """Completions for the word at the end of `text` (the line up to the cursor)."""
         from .lang import commands
@@ -558,13 +575,39 @@ class ReplSession:
             names = [v[0] for v in self.interp.globals.values()]
         else:
             kws = self.keywords_after(words)
-            names = [] if words[0].upper() in ("SHOW", "HELP", "END") else self.defined_names()
+            names = self._names_after(words[0])
         u = word.upper()
         out = [k for k in kws if k.upper().startswith(u)]
         for n in names:
             if n.upper().startswith(u):
                 out.append(n if _IDENT.match(n) else "'" + n + "'")
         return list(dict.fromkeys(out))
+
+
+def _display(table: dict, key: str) -> str:
+    """A definition's name as written, from its key."""
+    v = table.get(key)
+    return v.name if v is not None else key
+
+
+def _form_param_kinds(form: Form | None) -> set[str]:
+    kinds: set[str] = set()
+
+    def visit(f):
+        for c in f.clauses:
+            kinds.update(p.kind for p in c.params)
+        for p in f.params:
+            if isinstance(p, Variants):
+                for sub in p.options.values():
+                    visit(sub)
+                if p.default is not None:
+                    visit(p.default)
+            else:
+                kinds.add(p.kind)
+
+    if form is not None:
+        visit(form)
+    return kinds
 
 
 def _unit_metres(units: str) -> float:

@@ -53,6 +53,7 @@ class Features:
     records: bool = False
     history: bool = False
     scatter: bool = False
+    maps: bool = False         # SCATTER MAP lookups (geodetic latitude, longitude)
     volume: bool = False       # scattering media (free-path sampling)
     importance: bool = False   # SCATTER ... TOWARD: next-event rays and the IMPORTANCE ledger row
     bsdf_kinds: tuple = ()     # the scatter-model kinds the scene uses (their dispatch order)
@@ -114,10 +115,21 @@ class Packed:
     med_nee: np.ndarray             # (M,) RAYS toward the target per event
     coat_R: np.ndarray              # (C, L)
     coat_T: np.ndarray
-    # scattering
-    o_sc: np.ndarray                # model index, -1
-    o_sc_n: np.ndarray              # RAYS
-    o_sc_tgt: np.ndarray            # TOWARD object, -1
+    # scattering: an object's SCATTER specs sc_first[o] .. + sc_count[o], tried in order
+    o_sc_first: np.ndarray
+    o_sc_cnt: np.ndarray
+    sp_kind: np.ndarray             # 0 model, 1 class map, 2 fraction map
+    sp_model: np.ndarray            # model index (kinds 0 and 2)
+    sp_map: np.ndarray              # map index (kinds 1 and 2)
+    sp_cls_off: np.ndarray          # class -> model table (kind 1)
+    sp_cls_n: np.ndarray
+    sp_rays: np.ndarray
+    sp_tgt: np.ndarray
+    cls_models: np.ndarray
+    map_data: np.ndarray            # concatenated LATLON grids (rows from +90, columns from -180)
+    map_off: np.ndarray
+    map_nlat: np.ndarray
+    map_nlon: np.ndarray
     mod_kind: np.ndarray            # index into features.bsdf_kinds
     mod_P: np.ndarray               # (nM, PMAX, L)
     mod_slab: np.ndarray
@@ -157,6 +169,13 @@ class Packed:
     def row_names(self) -> list:
         return (list(self.object_names) + [f"MEDIUM {self.medium_names[m]}" for m in self.absorbing_media]
                 + (["IMPORTANCE"] if self.features.importance else []) + ["EMITTED", "ESCAPED", "HALTED", "LOST"])
+
+
+def _load_map(mdef: M.MapDef) -> np.ndarray:
+    from ..io.maps import load_latlon
+    from pathlib import Path
+
+    return load_latlon(Path(mdef.path))
 
 
 def _dd_translate(R_parent, T_parent_hi, T_parent_lo, t_child):
@@ -236,24 +255,64 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
     # scattering: the models objects use, packed per line; dispatch order = registry order
     from ..plugins.bsdfs import REGISTRY as BSDFS
 
-    o_sc = np.full(nO, -1, np.int32)
-    o_sc_n = np.ones(nO, np.int32)
-    o_sc_tgt = np.full(nO, -1, np.int32)
+    o_sc_first = np.zeros(nO, np.int32)
+    o_sc_cnt = np.zeros(nO, np.int32)
+    specs: list = []        # (kind, model, map, classes, rays, target)
     used_models: list = []
+    used_maps: list = []
+
+    def model_id(name):
+        if name not in used_models:
+            used_models.append(name)
+        return used_models.index(name)
+
     for i, k in enumerate(obj_keys):
         obj = scene.objects[k]
-        if len(obj.scatter) > 1:
-            raise error(obj.scatter[1].span, f"object {obj.name} has more than one SCATTER")
+        o_sc_first[i] = len(specs)
+        o_sc_cnt[i] = len(obj.scatter)
         for sc in obj.scatter:
-            if sc.map is not None:
-                raise MissingFeature(sc.span, "SCATTER MAP", "map-driven scattering (issue: scattering, maps)")
-            if sc.model not in used_models:
-                used_models.append(sc.model)
-            o_sc[i] = used_models.index(sc.model)
-            o_sc_n[i] = sc.rays
-            if sc.toward is not None:
-                o_sc_tgt[i] = obj_index[sc.toward]
+            tgt = obj_index[sc.toward] if sc.toward is not None else -1
+            if tgt >= 0:
                 feats.importance = True
+            if sc.map is None:
+                specs.append((0, model_id(sc.model), -1, (), sc.rays, tgt))
+                continue
+            mdef = scene.maps[sc.map]
+            if mdef.path is None:
+                raise MissingFeature(sc.span, f"MAP {mdef.name} LATLON DEFAULT {mdef.dataset}",
+                                     "the built-in Earth datasets (issue: the Earth system model)")
+            if sc.map not in used_maps:
+                used_maps.append(sc.map)
+            mi = used_maps.index(sc.map)
+            grid = _load_map(mdef)
+            if np.issubdtype(grid.dtype, np.integer) or len(sc.models) > 1:
+                specs.append((1, -1, mi, tuple(model_id(m) for m in sc.models), sc.rays, tgt))
+            else:
+                if np.nanmin(grid) < 0 or np.nanmax(grid) > 1:
+                    raise error(sc.span, f"map {mdef.name} is used as a fraction map (one model) but holds values "
+                                f"outside [0, 1] ({np.nanmin(grid):g} .. {np.nanmax(grid):g})",
+                                "give a class map one model per class, or scale the fractions to [0, 1]")
+                specs.append((2, model_id(sc.models[0]), mi, (), sc.rays, tgt))
+    nsp = max(1, len(specs))
+    sp_kind = np.zeros(nsp, np.int32)
+    sp_model = np.full(nsp, -1, np.int32)
+    sp_map = np.full(nsp, -1, np.int32)
+    sp_cls_off = np.zeros(nsp, np.int32)
+    sp_cls_n = np.zeros(nsp, np.int32)
+    sp_rays = np.ones(nsp, np.int32)
+    sp_tgt = np.full(nsp, -1, np.int32)
+    cls = []
+    for q, (kd, mo, mp, classes, rays, tgt) in enumerate(specs):
+        sp_kind[q], sp_model[q], sp_map[q], sp_rays[q], sp_tgt[q] = kd, mo, mp, rays, tgt
+        sp_cls_off[q], sp_cls_n[q] = len(cls), len(classes)
+        cls.extend(classes)
+    cls_models = np.asarray(cls or [0], np.int32)
+    grids = [_load_map(scene.maps[m]).astype(np.float64) for m in used_maps]
+    map_nlat = np.array([g.shape[0] for g in grids] or [1], np.int64)
+    map_nlon = np.array([g.shape[1] for g in grids] or [1], np.int64)
+    map_off = np.concatenate([[0], np.cumsum([g.size for g in grids])[:-1]]).astype(np.int64) if grids else np.zeros(1, np.int64)
+    map_data = np.concatenate([g.ravel() for g in grids]) if grids else np.zeros(1)
+    feats.maps = bool(grids)
     kinds = [kk for kk in BSDFS if any(scene.models[m].kind == kk for m in used_models)]
     feats.bsdf_kinds = tuple(kinds)
     feats.scatter = bool(used_models)
@@ -411,7 +470,9 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
                   cat(6, np.float64, (0, 3)),
                   o_itf, o_coat, o_back, o_front, o_det, med_n, med_alpha, med_row, med_sig, med_alb, med_g, med_phase,
                   med_depol, med_tgt, med_nee, coat_R, coat_T,
-                  o_sc, o_sc_n, o_sc_tgt, mod_kind, mod_P, mod_slab, [scene.models[m].name for m in used_models],
+                  o_sc_first, o_sc_cnt, sp_kind, sp_model, sp_map, sp_cls_off, sp_cls_n, sp_rays, sp_tgt, cls_models,
+                  map_data, map_off, map_nlat, map_nlon,
+                  mod_kind, mod_P, mod_slab, [scene.models[m].name for m in used_models],
                   d_obj, d_nx, d_ny, d_ext, [scene.objects[obj_keys[i]].name for i, _ in det_rows], **src)
 
 

@@ -48,6 +48,7 @@ F_PRECISE = True
 F_RECORDS = True
 F_HISTORY = True
 F_SCATTER = True
+F_MAPS = True
 F_VOLUME = True
 F_IMPORTANCE = True
 # ---- end of features ----
@@ -213,6 +214,39 @@ def _normal(j, k, lx, ly, lz, face, s_par, s_asph, s_nasph, s_R, bvh_fn):
     else:
         nx, ny, nz = 0.0, 0.0, 1.0
     return _rot(s_R, j, nx, ny, nz)
+
+
+# ---------------------------------------------------------------------------------------------- maps
+WGS84_A = 6378137.0
+WGS84_E2 = 6.69437999014e-3
+
+
+@numba.njit(cache=True)
+def geodetic(x, y, z):
+    """Geodetic latitude and longitude (radians) on the WGS84 ellipsoid of a point in an Earth-centred frame
+    (z the polar axis, x toward longitude 0), at any altitude (Bowring's iteration)."""
+    p = math.hypot(x, y)
+    lon = math.atan2(y, x)
+    if p == 0.0:
+        return (math.pi / 2 if z >= 0 else -math.pi / 2), lon
+    lat = math.atan2(z, p * (1.0 - WGS84_E2))
+    for _ in range(4):
+        s = math.sin(lat)
+        N = WGS84_A / math.sqrt(1.0 - WGS84_E2 * s * s)
+        c = math.cos(lat)
+        h = p / c - N if abs(c) > 1e-12 else abs(z) - N * (1.0 - WGS84_E2)
+        lat = math.atan2(z, p * (1.0 - WGS84_E2 * N / (N + h)))
+    return lat, lon
+
+
+@numba.njit(cache=True)
+def map_value(map_data, off, nlat, nlon, lat, lon):
+    """LATLON grid value: rows from +90 deg down, columns from -180 deg east."""
+    r = int((0.5 - lat / math.pi) * nlat)
+    q = int((lon / (2.0 * math.pi) + 0.5) * nlon)
+    r = min(max(r, 0), nlat - 1)
+    q = min(max(q, 0), nlon - 1)
+    return map_data[off + r * nlon + q]
 
 
 # ---------------------------------------------------------------------------------------------- sources
@@ -481,7 +515,8 @@ def _push(stack, sp, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w0, ev, excl, 
 def trace_batch(first, n, total, seed, level, halt, r_imp,
                 s_obj, s_kind, s_par, s_asph, s_nasph, s_ap_kind, s_ap, s_R, s_Th, s_Tl, s_size, s_mesh,
                 m_node_off, m_node_n, m_tri_off, m_tri_n, bmin, bmax, child, count, tris, ids, bvh_fn,
-                o_itf, o_coat, o_back, o_front, o_det, o_bc, o_br, o_sc, o_sc_n, o_sc_tgt,
+                o_itf, o_coat, o_back, o_front, o_det, o_bc, o_br, o_sc_first, o_sc_cnt, sp_kind, sp_model, sp_map,
+                sp_cls_off, sp_cls_n, sp_rays, sp_tgt, cls_models, map_data, map_off, map_nlat, map_nlon,
                 mod_kind, mod_P, mod_slab,
                 med_n, med_alpha, med_row, med_sig, med_alb, med_g, med_phase, med_depol, med_tgt, med_nee,
                 coat_R, coat_T,
@@ -698,9 +733,35 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                         T = 1.0 - R
                     ev += 1
                     evkind = EV_A
-                    sc = o_sc[o] if F_SCATTER else -1
+                    # which scatter model applies here: an object's SCATTER specs, tried in order
+                    sc = -1
+                    sc_n = 1
+                    sc_tgt = -1
                     mk = 0
                     Pm = mod_P[0]
+                    if F_SCATTER and o_sc_cnt[o] > 0:
+                        for qq in range(o_sc_cnt[o]):
+                            spn = o_sc_first[o] + qq
+                            kd = sp_kind[spn]
+                            if F_MAPS and kd > 0:
+                                lat, lon = geodetic(lx, ly, lz)
+                                mp = sp_map[spn]
+                                v = map_value(map_data, map_off[mp], map_nlat[mp], map_nlon[mp], lat, lon)
+                                if kd == 1:
+                                    cl = int(v)
+                                    if cl >= 0 and cl < sp_cls_n[spn]:
+                                        sc = cls_models[sp_cls_off[spn] + cl]
+                                else:
+                                    uc, _u = uniform2(seed, i, ev, path * 64 + 59 - qq)
+                                    if uc < v:
+                                        sc = sp_model[spn]
+                                    else:
+                                        continue
+                            else:
+                                sc = sp_model[spn]
+                            sc_n = sp_rays[spn]
+                            sc_tgt = sp_tgt[spn]
+                            break
                     nvx = nwx if front else -nwx      # the normal on the incoming side
                     nvy = nwy if front else -nwy
                     nvz = nwz if front else -nwz
@@ -722,9 +783,9 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                             T *= (1.0 - rho)
                             diffuse = rho
                         # rays sent toward the target (next-event estimation), exact weights
-                        tgt = o_sc_tgt[o]
+                        tgt = sc_tgt
                         if F_IMPORTANCE and tgt >= 0 and not nee:
-                            nr = o_sc_n[o]
+                            nr = sc_n
                             for q in range(nr):
                                 cx = o_bc[tgt, 0] - phx - plx
                                 cy = o_bc[tgt, 1] - phy - ply
@@ -777,7 +838,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                     excl = -1
                         else:
                             # diffuse scattering: the model's own sampling; RAYS n without TOWARD splits
-                            nsplit = o_sc_n[o] if o_sc_tgt[o] < 0 else 1
+                            nsplit = sc_n if sc_tgt < 0 else 1
                             wi_x = -dx
                             wi_y = -dy
                             wi_z = -dz
@@ -799,7 +860,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                     if F_HISTORY and ev - 1 < H:
                                         hist[ev - 1] = o * 8 + EV_S
                                     _push(stack, sp, phx, phy, phz, plx, ply, plz, sx, sy, sz, cw, w0 / nsplit, ev,
-                                          o_sc_tgt[o], 0.0, npath, flags | FL_SCATTERED, hist, H)
+                                          sc_tgt, 0.0, npath, flags | FL_SCATTERED, hist, H)
                                     sp += 1
                                     npath += 1
                                 elif cw > 0.0:
@@ -810,7 +871,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                             w0 = w0 / nsplit
                             flags |= FL_SCATTERED
                             evkind = EV_S
-                            excl = o_sc_tgt[o]
+                            excl = sc_tgt
                         if w > 0.0:
                             m = math.sqrt(dx * dx + dy * dy + dz * dz)
                             dx /= m

@@ -33,6 +33,8 @@ def _norm(x):
         return tuple((k, _norm(v)) for k, v in x.items())
     if isinstance(x, (list, tuple)):
         return tuple(_norm(v) for v in x)
+    if hasattr(x, "shape") and hasattr(x, "tolist"):   # numpy arrays (a MESH's triangles)
+        return ("array", tuple(x.shape), _norm(x.tolist()))
     return x
 
 
