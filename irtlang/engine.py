@@ -268,6 +268,7 @@ class Engine:
         Xs = X + s * U
         rms = math.sqrt((w[:, None] * Xs * Xs).sum() / W)
         unit, f = self._lu()
+        s *= sgn   # s above is a shift of the axis coordinate; report it along the rays' direction of travel
         self.out(f"FOCUS: best focus {s / f:+.9g} {unit} along {'+-'[sgn < 0]}{'XYZ'[a]} from the rays' end points "
                  f"(RMS radius {rms / f:.6g} {unit} there, {rms0 / f:.6g} {unit} at the end points; "
                  f"{int(m.sum()):,} rays)")

@@ -133,6 +133,7 @@ def run_trace(scene, *, seed: int, level: int, halt: float, until_error: float |
     rows = pk.n_rows
     total = pk.n_rays_total
     o_bc, o_br = _object_bounds(pk)
+    s_f, s_i, mesh_i = pk.surface_tables()
     d_sizes = [L * int(ny) * int(nx) for nx, ny in zip(pk.d_nx, pk.d_ny)]
     d_off = np.concatenate([[0], np.cumsum(d_sizes)[:-1]]).astype(np.int64) if d_sizes else np.zeros(0, np.int64)
     img = np.zeros(int(sum(d_sizes)))
@@ -169,9 +170,7 @@ def run_trace(scene, *, seed: int, level: int, halt: float, until_error: float |
                                history=np.zeros((nch, rcap, H), np.int32))
                     rec_n = np.zeros(nch, np.int64)
                     mod.trace_batch(first_of_pass + start, n, total, seed, level, halt, pk.r_importance,
-                                    pk.s_obj, pk.s_kind, pk.s_par, pk.s_asph, pk.s_nasph, pk.s_ap_kind, pk.s_ap,
-                                    pk.s_R, pk.s_Th, pk.s_Tl, pk.s_size, pk.s_mesh, pk.m_node_off, pk.m_node_n,
-                                    pk.m_tri_off, pk.m_tri_n, pk.bvh_bmin, pk.bvh_bmax, pk.bvh_child, pk.bvh_count,
+                                    s_f, s_i, mesh_i, pk.bvh_bmin, pk.bvh_bmax, pk.bvh_child, pk.bvh_count,
                                     pk.bvh_tris, pk.bvh_ids, pk.bvh_fn, pk.o_itf, pk.o_coat, pk.o_back, pk.o_front,
                                     pk.o_det, o_bc, o_br, pk.o_sc_first, pk.o_sc_cnt, pk.sp_kind, pk.sp_model, pk.sp_map,
                                     pk.sp_cls_off, pk.sp_cls_n, pk.sp_rays, pk.sp_tgt, pk.cls_models, pk.map_data,

@@ -84,6 +84,7 @@ class Packed:
     s_Tl: np.ndarray
     s_size: np.ndarray              # characteristic size, for the self-hit tolerance
     s_mesh: np.ndarray              # index into the mesh table, -1
+    s_bs: np.ndarray                # (n, 4) local bounding sphere: centre, radius (inf: unbounded)
     # meshes (concatenated BVHs; each mesh's child and tri indices are local to its slices)
     m_node_off: np.ndarray
     m_node_n: np.ndarray
@@ -157,6 +158,23 @@ class Packed:
     n_rays_total: int = 0
     emitted_W: np.ndarray = field(default_factory=lambda: np.zeros(0))   # per line
 
+    def surface_tables(self):
+        """(s_f, s_i, mesh_i): the surface columns as the kernel reads them (see trace_kernel SF_*/SI_*)."""
+        n = len(self.s_kind)
+        f = np.zeros((n, 36))
+        f[:, 0:6] = self.s_par
+        f[:, 6:14] = self.s_asph
+        f[:, 14:16] = self.s_ap
+        f[:, 16:25] = self.s_R
+        f[:, 25:28] = self.s_Th
+        f[:, 28:31] = self.s_Tl
+        f[:, 31] = self.s_size
+        f[:, 32:36] = self.s_bs
+        i = np.stack([self.s_kind, self.s_nasph, self.s_ap_kind, self.s_mesh, self.s_obj], axis=1).astype(np.int64)
+        m = np.stack([self.m_node_off, self.m_node_n, self.m_tri_off, self.m_tri_n], axis=1).astype(np.int64) \
+            if len(self.m_node_n) else np.zeros((1, 4), np.int64)
+        return np.ascontiguousarray(f), np.ascontiguousarray(i), m
+
     @property
     def r_importance(self) -> int:
         return len(self.object_names) + len(self.absorbing_media) if self.features.importance else -1
@@ -204,6 +222,43 @@ def world_frame(scene: M.Scene, local: M.Transform, group: str | None):
         R, Th, Tl = Rn, Th2, Tl2
         g = grp.parent
     return R, Th, Tl
+
+
+def _local_bounds(s: M.Surface) -> tuple:
+    """A sphere (cx, cy, cz, r) in the surface's local frame that holds all of it; r = inf if unbounded."""
+    p = s.params
+    if s.kind == "SPHERE":
+        return (0.0, 0.0, 0.0, p["radius"] * (1 + 1e-9))
+    if s.kind == "ELLIPSOID":
+        return (0.0, 0.0, 0.0, max(p["a"], p["b"], p["c"]) * (1 + 1e-9))
+    if s.kind == "TUBE":
+        zc = 0.5 * (p["z1"] + p["z2"])
+        return (0.0, 0.0, zc, math.hypot(max(p["r1"], p["r2"]), 0.5 * abs(p["z2"] - p["z1"])) * (1 + 1e-9))
+    if s.kind == "MESH":
+        v = p["vertices"]
+        lo, hi = v.min(0), v.max(0)
+        c = 0.5 * (lo + hi)
+        return (*c, 0.5 * float(np.linalg.norm(hi - lo)) * (1 + 1e-9) + 1e-12)
+    if s.aperture is None:
+        return (0.0, 0.0, 0.0, math.inf)
+    from ..plugins.surfaces._aperture import outer_radius
+
+    r = outer_radius(s.aperture)
+    if s.kind == "PLANE":
+        return (0.0, 0.0, 0.0, r * (1 + 1e-9))
+    c, k, a = p["c"], p["k"], p["asphere"]
+    # the sag is monotonic in r on the vertex sheet: its extremes over the aperture are at 0 and r
+    arg = 1 - (1 + k) * c * c * r * r
+    sag = c * r * r / (1 + math.sqrt(max(arg, 0.0))) + sum(ai * r ** (4 + 2 * i) for i, ai in enumerate(a))
+    if a:
+        rs = np.linspace(0.0, r, 257)
+        arg = 1 - (1 + k) * c * c * rs * rs
+        sags = c * rs * rs / (1 + np.sqrt(np.maximum(arg, 0.0))) + sum(ai * rs ** (4 + 2 * i) for i, ai in enumerate(a))
+        lo, hi = float(sags.min()), float(sags.max())
+    else:
+        lo, hi = min(0.0, sag), max(0.0, sag)
+    zc = 0.5 * (lo + hi)
+    return (0.0, 0.0, zc, math.hypot(r, 0.5 * (hi - lo)) * (1 + 1e-6) + 1e-12)
 
 
 def _surface_size(s: M.Surface) -> float:
@@ -398,6 +453,7 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
     s_Tl = np.zeros((nS, 3))
     s_size = np.zeros(nS)
     s_mesh = np.full(nS, -1, np.int32)
+    s_bs = np.zeros((nS, 4))
     for j, (i, s, R, Th, Tl) in enumerate(rows):
         s_obj[j] = i
         s_kind[j] = SURFACE_CODES[s.kind]
@@ -428,6 +484,7 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
             s_ap[j, :len(s.aperture.params)] = s.aperture.params
         s_R[j], s_Th[j], s_Tl[j] = R, Th, Tl
         s_size[j] = _surface_size(s)
+        s_bs[j] = _local_bounds(s)
         if max(abs(x) for x in Th) > 1e6:
             feats.precise = True
 
@@ -464,7 +521,7 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
             feats.precise = True
     return Packed(lines, widths, [scene.objects[k].name for k in obj_keys], [scene.media[k].name for k in med_keys],
                   absorbing, feats, s_obj, s_kind, s_par, s_asph, s_nasph, s_ap_kind, s_ap, s_R, s_Th, s_Tl, s_size,
-                  s_mesh, m_node_off, m_node_n, m_tri_off, m_tri_n,
+                  s_mesh, s_bs, m_node_off, m_node_n, m_tri_off, m_tri_n,
                   cat(0, np.float64, (0, 3)), cat(1, np.float64, (0, 3)), cat(2, np.int64, (0, 2)),
                   cat(3, np.int64, (0,)), cat(4, np.float64, (0, 9)), cat(5, np.int64, (0,)),
                   cat(6, np.float64, (0, 3)),

@@ -32,7 +32,7 @@ import numba
 import numpy as np
 
 from .bvh import hit_mesh
-from .geometry import (conic_normal, ellipsoid_normal, hit_conic, hit_ellipsoid, hit_plane, hit_sphere, hit_tube,
+from .geometry import (conic_normal, drop_leaving_root, ellipsoid_normal, hit_conic, hit_ellipsoid, hit_plane, hit_sphere, hit_tube,
                        in_annulus, in_disk, in_ellipse, in_rect, sphere_normal, tube_normal)
 from .optics import fresnel_unpolarized, refract
 from .rng import uniform2
@@ -55,7 +55,7 @@ F_IMPORTANCE = True
 
 CHUNK = 1024
 SMAX = 256          # pending paths per source ray (splitting, rays toward a target)
-SW = 16             # stack entry: ph(3) pl(3) d(3) w w0 ev excl nee path flags, then the history
+SW = 17             # stack entry: ph(3) pl(3) d(3) w w0 ev excl nee path flags jlast, then the history
 # ledger columns
 C_INC, C_REF, C_TRA, C_SCA, C_ABS = 0, 1, 2, 3, 4
 # record flags
@@ -68,14 +68,14 @@ _SPLIT = 134217729.0
 
 
 # ---------------------------------------------------------------------------------------------- double-double
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _two_sum(a, b):
     s = a + b
     bb = s - a
     return s, (a - (s - bb)) + (b - bb)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _two_prod(a, b):
     p = a * b
     if abs(a) > 1e150 or abs(b) > 1e150:
@@ -89,7 +89,7 @@ def _two_prod(a, b):
     return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _adv(h, l, t, d):
     """(h + l) + t d in double-double."""
     if not F_PRECISE:
@@ -101,7 +101,7 @@ def _adv(h, l, t, d):
     return hi, lo - (hi - s)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _sub(h, l, th, tl):
     """(h + l) - (th + tl) as one double (the offset is small near the surface: no loss)."""
     if not F_PRECISE:
@@ -110,56 +110,91 @@ def _sub(h, l, th, tl):
     return s + (e + (l - tl))
 
 
-@numba.njit(cache=True)
-def _local(phx, phy, phz, plx, ply, plz, dx, dy, dz, R, Th, Tl, j):
-    qx = _sub(phx, plx, Th[j, 0], Tl[j, 0])
-    qy = _sub(phy, ply, Th[j, 1], Tl[j, 1])
-    qz = _sub(phz, plz, Th[j, 2], Tl[j, 2])
-    r = R[j]
-    return (r[0] * qx + r[3] * qy + r[6] * qz, r[1] * qx + r[4] * qy + r[7] * qz, r[2] * qx + r[5] * qy + r[8] * qz,
-            r[0] * dx + r[3] * dy + r[6] * dz, r[1] * dx + r[4] * dy + r[7] * dz, r[2] * dx + r[5] * dy + r[8] * dz)
+# surface tables: s_f (n, 36) float columns and s_i (n, 5) int columns, laid out by irtlang.compile.pack
+SF_PAR, SF_ASPH, SF_AP, SF_R, SF_TH, SF_TL, SF_SIZE, SF_BS = 0, 6, 14, 16, 25, 28, 31, 32
+SI_KIND, SI_NASPH, SI_APK, SI_MESH, SI_OBJ = 0, 1, 2, 3, 4
+_NO_ASPH = np.zeros(0)
 
 
-@numba.njit(cache=True)
-def _rot(R, j, x, y, z):
-    r = R[j]
-    return r[0] * x + r[1] * y + r[2] * z, r[3] * x + r[4] * y + r[5] * z, r[6] * x + r[7] * y + r[8] * z
+@numba.njit(cache=True, inline="always")
+def _local(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, j):
+    qx = _sub(phx, plx, f[j, SF_TH], f[j, SF_TL])
+    qy = _sub(phy, ply, f[j, SF_TH + 1], f[j, SF_TL + 1])
+    qz = _sub(phz, plz, f[j, SF_TH + 2], f[j, SF_TL + 2])
+    r = SF_R
+    return (f[j, r] * qx + f[j, r + 3] * qy + f[j, r + 6] * qz, f[j, r + 1] * qx + f[j, r + 4] * qy + f[j, r + 7] * qz,
+            f[j, r + 2] * qx + f[j, r + 5] * qy + f[j, r + 8] * qz, f[j, r] * dx + f[j, r + 3] * dy + f[j, r + 6] * dz,
+            f[j, r + 1] * dx + f[j, r + 4] * dy + f[j, r + 7] * dz, f[j, r + 2] * dx + f[j, r + 5] * dy + f[j, r + 8] * dz)
 
 
-@numba.njit(cache=True)
-def _aperture_ok(kind, ap, j, x, y):
+@numba.njit(cache=True, inline="always")
+def _rot(f, j, x, y, z):
+    r = SF_R
+    return (f[j, r] * x + f[j, r + 1] * y + f[j, r + 2] * z, f[j, r + 3] * x + f[j, r + 4] * y + f[j, r + 5] * z,
+            f[j, r + 6] * x + f[j, r + 7] * y + f[j, r + 8] * z)
+
+
+@numba.njit(cache=True, inline="always")
+def _aperture_ok(kind, f, j, x, y):
     if kind == 0:
         return True
+    a0 = f[j, SF_AP]
+    a1 = f[j, SF_AP + 1]
     if kind == 1:
-        return in_rect(x, y, ap[j, 0], ap[j, 1])
+        return in_rect(x, y, a0, a1)
     if kind == 2:
-        return in_disk(x, y, ap[j, 0])
+        return in_disk(x, y, a0)
     if kind == 3:
-        return in_annulus(x, y, ap[j, 0], ap[j, 1])
-    return in_ellipse(x, y, ap[j, 0], ap[j, 1])
+        return in_annulus(x, y, a0, a1)
+    return in_ellipse(x, y, a0, a1)
+
+
+@numba.njit(cache=True, inline="always")
+def _asph(f, si, j):
+    n = si[j, SI_NASPH]
+    if n == 0:
+        return _NO_ASPH
+    return f[j, SF_ASPH:SF_ASPH + n]
 
 
 # ---------------------------------------------------------------------------------------------- intersection
-@numba.njit(cache=True)
-def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, s_kind, s_par, s_asph, s_nasph, s_ap_kind, s_ap, s_R, s_Th,
-             s_Tl, s_size, s_mesh, m_node_off, m_node_n, m_tri_off, m_tri_n, bmin, bmax, child, count, tris, ids):
-    """Nearest surface hit: (t, surface, lx, ly, lz, face)."""
+@numba.njit(cache=True, inline="always")
+def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, mesh_i, bmin, bmax, child, count, tris, ids, jlast):
+    """Nearest surface hit: (t, surface, lx, ly, lz, face).  On `jlast`, the surface the ray has just
+    left, the root nearest 0 (the departure point itself) is dropped first: at grazing departure the origin's
+    rounding divided by the grazing angle can push that root past any tolerance."""
     best_t = np.inf
     best_j = -1
     blx = 0.0
     bly = 0.0
     blz = 0.0
     bface = -1
-    for j in range(s_kind.shape[0]):
-        ox, oy, oz, ldx, ldy, ldz = _local(phx, phy, phz, plx, ply, plz, dx, dy, dz, s_R, s_Th, s_Tl, j)
-        k = s_kind[j]
-        tmin = EPS_SELF * max(s_size[j], abs(ox), abs(oy), abs(oz))
+    for j in range(si.shape[0]):
+        ox, oy, oz, ldx, ldy, ldz = _local(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, j)
+        k = si[j, SI_KIND]
+        # bounding-sphere cull (unit direction): skip a surface the ray cannot reach, or not before best_t
+        br = f[j, SF_BS + 3]
+        if j != jlast and br < np.inf:
+            qx = ox - f[j, SF_BS]
+            qy = oy - f[j, SF_BS + 1]
+            qz = oz - f[j, SF_BS + 2]
+            bb = qx * ldx + qy * ldy + qz * ldz
+            cc = qx * qx + qy * qy + qz * qz - br * br
+            if cc > 0.0:
+                if bb > 0.0:
+                    continue
+                disc = bb * bb - cc
+                if disc < 0.0:
+                    continue
+                if -bb - math.sqrt(disc) > best_t:
+                    continue
+        tmin = EPS_SELF * max(f[j, SF_SIZE], abs(ox), abs(oy), abs(oz))
         if F_MESH and k == 5:
-            m = s_mesh[j]
-            a0 = m_node_off[m]
-            a1 = a0 + m_node_n[m]
-            b0 = m_tri_off[m]
-            b1 = b0 + m_tri_n[m]
+            m = si[j, SI_MESH]
+            a0 = mesh_i[m, 0]
+            a1 = a0 + mesh_i[m, 1]
+            b0 = mesh_i[m, 2]
+            b1 = b0 + mesh_i[m, 3]
             t, face, _u, _v = hit_mesh(ox, oy, oz, ldx, ldy, ldz, tmin, bmin[a0:a1], bmax[a0:a1], child[a0:a1],
                                        count[a0:a1], tris[b0:b1], ids[b0:b1])
             if t < best_t:
@@ -173,47 +208,71 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, s_kind, s_par, s_asph, s_
         if k == 0:
             t1, t2 = hit_plane(ox, oy, oz, ldx, ldy, ldz)
         elif F_CONIC and k == 1:
-            t1, t2 = hit_conic(ox, oy, oz, ldx, ldy, ldz, s_par[j, 0], s_par[j, 1], s_asph[j, :s_nasph[j]])
+            cq = f[j, SF_PAR]
+            kq = f[j, SF_PAR + 1]
+            if j == jlast and si[j, SI_NASPH] == 0:
+                # leaving this conic: the origin is on the quadric, so the other root is -2B/A (no sqrt)
+                kk = 1.0 + kq
+                a_ = cq * (ldx * ldx + ldy * ldy) + kk * cq * ldz * ldz
+                b_ = cq * (ox * ldx + oy * ldy) + kk * cq * oz * ldz - ldz
+                t1 = -2.0 * b_ / a_ if a_ != 0.0 else np.inf
+                if not (t1 > 0.0) or not math.isfinite(t1) or 1.0 - kk * cq * (oz + t1 * ldz) < -1e-9:
+                    t1 = np.inf
+                t2 = np.inf
+            else:
+                t1, t2 = hit_conic(ox, oy, oz, ldx, ldy, ldz, cq, kq, _asph(f, si, j))
         elif F_QUADRIC and k == 2:
-            t1, t2 = hit_sphere(ox, oy, oz, ldx, ldy, ldz, s_par[j, 0])
+            t1, t2 = hit_sphere(ox, oy, oz, ldx, ldy, ldz, f[j, SF_PAR])
         elif F_QUADRIC and k == 3:
-            t1, t2 = hit_ellipsoid(ox, oy, oz, ldx, ldy, ldz, s_par[j, 0], s_par[j, 1], s_par[j, 2])
+            t1, t2 = hit_ellipsoid(ox, oy, oz, ldx, ldy, ldz, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_PAR + 2])
         elif F_QUADRIC and k == 4:
-            t1, t2 = hit_tube(ox, oy, oz, ldx, ldy, ldz, s_par[j, 0], s_par[j, 1], s_par[j, 2], s_par[j, 3])
+            t1, t2 = hit_tube(ox, oy, oz, ldx, ldy, ldz, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_PAR + 2],
+                              f[j, SF_PAR + 3])
         else:
             continue
-        for t in (t1, t2):
-            if t > tmin and t < best_t:
-                x = ox + t * ldx
-                y = oy + t * ldy
-                if _aperture_ok(s_ap_kind[j], s_ap, j, x, y):
-                    best_t = t
-                    best_j = j
-                    blx = x
-                    bly = y
-                    blz = oz + t * ldz
-                    break
+        if j == jlast and not (k == 1 and si[j, SI_NASPH] == 0):
+            t1, t2 = drop_leaving_root(t1, t2)
+        apk = si[j, SI_APK]
+        if t1 > tmin and t1 < best_t:
+            x = ox + t1 * ldx
+            y = oy + t1 * ldy
+            if _aperture_ok(apk, f, j, x, y):
+                best_t = t1
+                best_j = j
+                blx = x
+                bly = y
+                blz = oz + t1 * ldz
+                continue
+        if t2 > tmin and t2 < best_t:
+            x = ox + t2 * ldx
+            y = oy + t2 * ldy
+            if _aperture_ok(apk, f, j, x, y):
+                best_t = t2
+                best_j = j
+                blx = x
+                bly = y
+                blz = oz + t2 * ldz
     return best_t, best_j, blx, bly, blz, bface
 
 
-@numba.njit(cache=True)
-def _normal(j, k, lx, ly, lz, face, s_par, s_asph, s_nasph, s_R, bvh_fn):
+@numba.njit(cache=True, inline="always")
+def _normal(j, k, lx, ly, lz, face, f, si, bvh_fn):
     """World unit normal of surface j at local point (lx, ly, lz)."""
     if k == 0:
         nx, ny, nz = 0.0, 0.0, 1.0
     elif F_CONIC and k == 1:
-        nx, ny, nz = conic_normal(lx, ly, s_par[j, 0], s_par[j, 1], s_asph[j, :s_nasph[j]])
+        nx, ny, nz = conic_normal(lx, ly, f[j, SF_PAR], f[j, SF_PAR + 1], _asph(f, si, j))
     elif F_QUADRIC and k == 2:
         nx, ny, nz = sphere_normal(lx, ly, lz)
     elif F_QUADRIC and k == 3:
-        nx, ny, nz = ellipsoid_normal(lx, ly, lz, s_par[j, 0], s_par[j, 1], s_par[j, 2])
+        nx, ny, nz = ellipsoid_normal(lx, ly, lz, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_PAR + 2])
     elif F_QUADRIC and k == 4:
-        nx, ny, nz = tube_normal(lx, ly, lz, s_par[j, 0], s_par[j, 1], s_par[j, 2], s_par[j, 3])
+        nx, ny, nz = tube_normal(lx, ly, lz, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_PAR + 2], f[j, SF_PAR + 3])
     elif F_MESH and k == 5 and face >= 0:
         nx, ny, nz = bvh_fn[face, 0], bvh_fn[face, 1], bvh_fn[face, 2]
     else:
         nx, ny, nz = 0.0, 0.0, 1.0
-    return _rot(s_R, j, nx, ny, nz)
+    return _rot(f, j, nx, ny, nz)
 
 
 # ---------------------------------------------------------------------------------------------- maps
@@ -321,7 +380,7 @@ def _turn(dx, dy, dz, mu, u):
     return x * t1x + y * t2x + mu * dx, x * t1y + y * t2y + mu * dy, x * t1z + y * t2z + mu * dz
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random, src_toward,
          src_pts, src_pts_off, o_bc, o_br):
     """Ray i: (source, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w).  Ids past `total` start another
@@ -336,7 +395,6 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
     q = j - line * n
     w = src_w[s, line]
     kind = src_kind[s]
-    par = src_par[s]
     u0, u1 = uniform2(seed, i, 0, 0)
     u2, u3 = uniform2(seed, i, 0, 1)
     # position in the source frame
@@ -347,8 +405,8 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
     ldy = 0.0
     ldz = 1.0
     if kind == 0:  # GRID RECT
-        nx = int(par[4])
-        ny = int(par[5])
+        nx = int(src_par[s, 4])
+        ny = int(src_par[s, 5])
         if src_random[s] == 1:
             fx = u0
             fy = u1
@@ -357,32 +415,31 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
             ix = q - iy * nx
             fx = (ix + 0.5) / nx
             fy = (iy + 0.5) / ny
-        lx = par[0] + (par[1] - par[0]) * fx
-        ly = par[2] + (par[3] - par[2]) * fy
+        lx = src_par[s, 0] + (src_par[s, 1] - src_par[s, 0]) * fx
+        ly = src_par[s, 2] + (src_par[s, 3] - src_par[s, 2]) * fy
     elif kind == 1:  # GRID DISK
         if src_random[s] == 1:
             x, y = uniform_disk(u0, u1)
-            lx = par[0] * x
-            ly = par[0] * y
+            lx = src_par[s, 0] * x
+            ly = src_par[s, 0] * y
         else:
             k = src_pts_off[s] + q
             lx = src_pts[k, 0]
             ly = src_pts[k, 1]
     elif kind == 2:  # EMITTING SPHERE: a point on the sphere, its outward normal
         x, y, z = uniform_sphere(u0, u1)
-        lx = par[0] * x
-        ly = par[0] * y
-        lz = par[0] * z
+        lx = src_par[s, 0] * x
+        ly = src_par[s, 0] * y
+        lz = src_par[s, 0] * z
         ldx, ldy, ldz = x, y, z
     elif kind == 3:  # EMITTING DISK
         x, y = uniform_disk(u0, u1)
-        lx = par[0] * x
-        ly = par[0] * y
+        lx = src_par[s, 0] * x
+        ly = src_par[s, 0] * y
     # to world
-    R = src_R[s]
-    wx = R[0] * lx + R[1] * ly + R[2] * lz
-    wy = R[3] * lx + R[4] * ly + R[5] * lz
-    wz = R[6] * lx + R[7] * ly + R[8] * lz
+    wx = src_R[s, 0] * lx + src_R[s, 1] * ly + src_R[s, 2] * lz
+    wy = src_R[s, 3] * lx + src_R[s, 4] * ly + src_R[s, 5] * lz
+    wz = src_R[s, 6] * lx + src_R[s, 7] * ly + src_R[s, 8] * lz
     phx, plx = _two_sum(src_Th[s, 0], wx)
     phy, ply = _two_sum(src_Th[s, 1], wy)
     phz, plz = _two_sum(src_Th[s, 2], wz)
@@ -391,11 +448,11 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
     plz += src_Tl[s, 2]
     dk = src_dir[s]
     if dk == 0:  # collimated (given in the source frame)
-        ldx, ldy, ldz = par[6], par[7], par[8]
+        ldx, ldy, ldz = src_par[s, 6], src_par[s, 7], src_par[s, 8]
     elif dk == 1 or dk == 2:  # from / to a point
-        vx = lx - par[6]
-        vy = ly - par[7]
-        vz = lz - par[8]
+        vx = lx - src_par[s, 6]
+        vy = ly - src_par[s, 7]
+        vz = lz - src_par[s, 8]
         if dk == 2:
             vx, vy, vz = -vx, -vy, -vz
         m = math.sqrt(vx * vx + vy * vy + vz * vz)
@@ -404,18 +461,18 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
         else:
             ldx, ldy, ldz = vx / m, vy / m, vz / m
     elif dk == 3:  # field angles
-        tx = math.tan(par[6])
-        ty = math.tan(par[7])
+        tx = math.tan(src_par[s, 6])
+        ty = math.tan(src_par[s, 7])
         m = math.sqrt(tx * tx + ty * ty + 1.0)
-        ldx, ldy, ldz = tx / m, ty / m, par[8] / m
+        ldx, ldy, ldz = tx / m, ty / m, src_par[s, 8] / m
     else:  # Lambertian emitter (sphere, disk) or isotropic point
         if kind == 4:
-            ax, ay, az = par[2], par[3], par[4]
+            ax, ay, az = src_par[s, 2], src_par[s, 3], src_par[s, 4]
         else:
             ax, ay, az = ldx, ldy, ldz
-        nwx = R[0] * ax + R[1] * ay + R[2] * az
-        nwy = R[3] * ax + R[4] * ay + R[5] * az
-        nwz = R[6] * ax + R[7] * ay + R[8] * az
+        nwx = src_R[s, 0] * ax + src_R[s, 1] * ay + src_R[s, 2] * az
+        nwy = src_R[s, 3] * ax + src_R[s, 4] * ay + src_R[s, 5] * az
+        nwz = src_R[s, 6] * ax + src_R[s, 7] * ay + src_R[s, 8] * az
         tgt = src_toward[s]
         if tgt >= 0:
             # sample the cone that holds the target's bounding sphere; exact weight = pdf_emitter / pdf_cone
@@ -427,22 +484,22 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
             omega = TWO_PI * omc
             c = dwx * nwx + dwy * nwy + dwz * nwz
             if kind == 4:
-                cmin = math.cos(par[1])
+                cmin = math.cos(src_par[s, 1])
                 if c < cmin:
                     w = 0.0
                 else:
                     w *= omega / (TWO_PI * (1.0 - cmin))
             else:
-                climit = math.cos(par[1]) if kind == 3 else 0.0
+                climit = math.cos(src_par[s, 1]) if kind == 3 else 0.0
                 if c <= climit:
                     w = 0.0
                 else:
                     w *= c * omega / math.pi
             return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w
         if kind == 4:
-            x, y, z = uniform_cone(u2, u3, math.cos(par[1]))
-        elif kind == 3 and par[1] < 1.5707963267948966:
-            sm = math.sin(par[1])
+            x, y, z = uniform_cone(u2, u3, math.cos(src_par[s, 1]))
+        elif kind == 3 and src_par[s, 1] < 1.5707963267948966:
+            sm = math.sin(src_par[s, 1])
             x, y, z = lambert_cone(u2, u3, sm)
             w *= sm * sm
         else:
@@ -452,9 +509,9 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
         dwy = x * t1y + y * t2y + z * nwy
         dwz = x * t1z + y * t2z + z * nwz
         return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w
-    dwx = R[0] * ldx + R[1] * ldy + R[2] * ldz
-    dwy = R[3] * ldx + R[4] * ldy + R[5] * ldz
-    dwz = R[6] * ldx + R[7] * ldy + R[8] * ldz
+    dwx = src_R[s, 0] * ldx + src_R[s, 1] * ldy + src_R[s, 2] * ldz
+    dwy = src_R[s, 3] * ldx + src_R[s, 4] * ldy + src_R[s, 5] * ldz
+    dwz = src_R[s, 6] * ldx + src_R[s, 7] * ldy + src_R[s, 8] * ldz
     m = math.sqrt(dwx * dwx + dwy * dwy + dwz * dwz)
     return s, line, phx, phy, phz, plx, ply, plz, dwx / m, dwy / m, dwz / m, w
 
@@ -488,33 +545,32 @@ def _bsdf_direct(kind, P, k, cos_i):
 # ---- end of bsdf dispatch ----
 
 # ---------------------------------------------------------------------------------------------- the trace
-@numba.njit(cache=True)
-def _push(stack, sp, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w0, ev, excl, nee, path, flags, hist, H):
-    e = stack[sp]
-    e[0] = phx
-    e[1] = phy
-    e[2] = phz
-    e[3] = plx
-    e[4] = ply
-    e[5] = plz
-    e[6] = dx
-    e[7] = dy
-    e[8] = dz
-    e[9] = w
-    e[10] = w0
-    e[11] = ev
-    e[12] = excl
-    e[13] = nee
-    e[14] = path
-    e[15] = flags
+@numba.njit(cache=True, inline="always")
+def _push(stack, sp, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w0, ev, excl, nee, path, flags, jlast, hist, H):
+    stack[sp, 0] = phx
+    stack[sp, 1] = phy
+    stack[sp, 2] = phz
+    stack[sp, 3] = plx
+    stack[sp, 4] = ply
+    stack[sp, 5] = plz
+    stack[sp, 6] = dx
+    stack[sp, 7] = dy
+    stack[sp, 8] = dz
+    stack[sp, 9] = w
+    stack[sp, 10] = w0
+    stack[sp, 11] = ev
+    stack[sp, 12] = excl
+    stack[sp, 13] = nee
+    stack[sp, 14] = path
+    stack[sp, 15] = flags
+    stack[sp, 16] = jlast
     for h in range(H):
-        e[SW + h] = hist[h]
+        stack[sp, SW + h] = hist[h]
 
 
 @numba.njit(cache=True, parallel=True)
 def trace_batch(first, n, total, seed, level, halt, r_imp,
-                s_obj, s_kind, s_par, s_asph, s_nasph, s_ap_kind, s_ap, s_R, s_Th, s_Tl, s_size, s_mesh,
-                m_node_off, m_node_n, m_tri_off, m_tri_n, bmin, bmax, child, count, tris, ids, bvh_fn,
+                s_f, s_i, mesh_i, bmin, bmax, child, count, tris, ids, bvh_fn,
                 o_itf, o_coat, o_back, o_front, o_det, o_bc, o_br, o_sc_first, o_sc_cnt, sp_kind, sp_model, sp_map,
                 sp_cls_off, sp_cls_n, sp_rays, sp_tgt, cls_models, map_data, map_off, map_nlat, map_nlon,
                 mod_kind, mod_P, mod_slab,
@@ -543,6 +599,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
         nrec = 0
         stack = np.empty((SMAX, SW + H))
         hist = np.full(max(H, 1), -1.0)
+        Pm = mod_P[0]
         for ii in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             i = first + ii
             s, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w = _gen(
@@ -551,30 +608,30 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
             led[c, r_emit, C_INC, line] += w
             for h in range(H):
                 hist[h] = -1.0
-            _push(stack, 0, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w, 0.0, -1.0, 0.0, 0.0, 0.0, hist, H)
+            _push(stack, 0, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w, 0.0, -1.0, 0.0, 0.0, 0.0, -1.0, hist, H)
             sp = 1
             npath = 1
             while sp > 0:
                 sp -= 1
-                e = stack[sp]
-                phx = e[0]
-                phy = e[1]
-                phz = e[2]
-                plx = e[3]
-                ply = e[4]
-                plz = e[5]
-                dx = e[6]
-                dy = e[7]
-                dz = e[8]
-                w = e[9]
-                w0 = e[10]
-                ev = int(e[11])
-                excl = int(e[12])
-                nee = e[13] > 0.0
-                path = int(e[14])
-                flags = int(e[15])
+                phx = stack[sp, 0]
+                phy = stack[sp, 1]
+                phz = stack[sp, 2]
+                plx = stack[sp, 3]
+                ply = stack[sp, 4]
+                plz = stack[sp, 5]
+                dx = stack[sp, 6]
+                dy = stack[sp, 7]
+                dz = stack[sp, 8]
+                w = stack[sp, 9]
+                w0 = stack[sp, 10]
+                ev = int(stack[sp, 11])
+                excl = int(stack[sp, 12])
+                nee = stack[sp, 13] > 0.0
+                path = int(stack[sp, 14])
+                flags = int(stack[sp, 15])
+                jlast = int(stack[sp, 16])
                 for h in range(H):
-                    hist[h] = e[SW + h]
+                    hist[h] = stack[sp, SW + h]
                 last = -1
                 hx = phx + plx
                 hy = phy + ply
@@ -590,17 +647,15 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                         led[c, r_halt, C_ABS, line] += w
                         flags |= FL_HALTED
                         break
-                    t, j, lx, ly, lz, face = _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, s_kind, s_par,
-                                                      s_asph, s_nasph, s_ap_kind, s_ap, s_R, s_Th, s_Tl, s_size,
-                                                      s_mesh, m_node_off, m_node_n, m_tri_off, m_tri_n, bmin, bmax,
-                                                      child, count, tris, ids)
+                    t, j, lx, ly, lz, face = _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, s_f, s_i, mesh_i,
+                                                      bmin, bmax, child, count, tris, ids, jlast)
                     if j < 0:
                         led[c, r_esc, C_ABS, line] += w
                         flags |= FL_ESCAPED
                         break
-                    k = s_kind[j]
-                    nwx, nwy, nwz = _normal(j, k, lx, ly, lz, face, s_par, s_asph, s_nasph, s_R, bvh_fn)
-                    o = s_obj[j]
+                    k = s_i[j, SI_KIND]
+                    nwx, nwy, nwz = _normal(j, k, lx, ly, lz, face, s_f, s_i, bvh_fn)
+                    o = s_i[j, SI_OBJ]
                     ci = -(dx * nwx + dy * nwy + dz * nwz)
                     if not (math.isfinite(t) and math.isfinite(ci)):
                         led[c, r_lost, C_ABS, line] += w
@@ -650,7 +705,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                         cw = w * _phase(pk, gg, gam, mu_) * TWO_PI * omc / nr
                                         if cw > 0.0 and sp < SMAX:
                                             _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev,
-                                                  -1.0, 1.0, npath, FL_SCATTERED, hist, H)
+                                                  -1.0, 1.0, npath, FL_SCATTERED, -1.0, hist, H)
                                             sp += 1
                                             npath += 1
                                             led[c, r_imp, C_ABS, line] -= cw
@@ -658,6 +713,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                 mu_ = _phase_sample(pk, gg, gam, v0)
                                 dx, dy, dz = _turn(dx, dy, dz, mu_, v1)
                                 excl = tgt
+                                jlast = -1
                                 flags |= FL_SCATTERED
                                 if F_HISTORY and ev - 1 < H:
                                     hist[ev - 1] = -2      # a volume event
@@ -738,7 +794,6 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                     sc_n = 1
                     sc_tgt = -1
                     mk = 0
-                    Pm = mod_P[0]
                     if F_SCATTER and o_sc_cnt[o] > 0:
                         for qq in range(o_sc_cnt[o]):
                             spn = o_sc_first[o] + qq
@@ -800,7 +855,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                     if F_HISTORY and ev - 1 < H:
                                         hist[ev - 1] = o * 8 + EV_S
                                     _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev, -1.0,
-                                          1.0, npath, FL_SCATTERED, hist, H)
+                                          1.0, npath, FL_SCATTERED, j, hist, H)
                                     sp += 1
                                     npath += 1
                                     led[c, r_imp, C_ABS, line] -= cw
@@ -860,7 +915,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                     if F_HISTORY and ev - 1 < H:
                                         hist[ev - 1] = o * 8 + EV_S
                                     _push(stack, sp, phx, phy, phz, plx, ply, plz, sx, sy, sz, cw, w0 / nsplit, ev,
-                                          sc_tgt, 0.0, npath, flags | FL_SCATTERED, hist, H)
+                                          sc_tgt, 0.0, npath, flags | FL_SCATTERED, j, hist, H)
                                     sp += 1
                                     npath += 1
                                 elif cw > 0.0:

@@ -12,8 +12,8 @@ from typing import Callable
 from . import ast as A
 from .diagnostics import Span, did_you_mean, error
 from .expr import evaluate, format_value
-from .spec import (Axis, Choice, Clause, Form, Name, Param, Path, PL, Ref, Rest, V, Variants, Vs, match_keyword,
-                   nonneg, positive, unit_interval)
+from .spec import (MAX_REPEAT, Axis, Choice, Clause, Form, Name, Param, Path, PL, Ref, Rest, V, Variants, Vs,
+                   match_keyword, nonneg, positive, unit_interval)
 from .units import ANGLE, INV_LENGTH, LENGTH, LENGTH_UNITS, NONE, POWER, Quantity
 from ..model import scene as M
 from ..plugins.bsdfs import REGISTRY as BSDFS
@@ -117,6 +117,8 @@ def _wavelengths(it, b, st):
         nq = it.to_dim(evaluate(n_i, it.env), NONE, n_i.span)
         if nq != int(nq) or nq < 1:
             raise error(n_i.span, f"WAVELENGTHS RANGE count must be a whole number >= 1, got {nq:g}")
+        if nq > MAX_REPEAT:
+            raise error(n_i.span, f"WAVELENGTHS RANGE count is {nq:g}; at most {MAX_REPEAT} lines")
         n = int(nq)
         if n == 1:
             lines = [vals[0]]

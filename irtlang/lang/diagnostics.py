@@ -13,6 +13,7 @@ error stops parsing at once (``IrtError`` carrying one diagnostic).
 from __future__ import annotations
 
 import difflib
+import unicodedata
 from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
@@ -25,8 +26,9 @@ class Source:
     text: str
 
     def line(self, n: int) -> str:
-        lines = self.text.splitlines()
-        return lines[n - 1] if 1 <= n <= len(lines) else ""
+        # lines end at "\n" only, as the lexer counts them (str.splitlines also splits at \f, \x85, \u2028 ...)
+        lines = self.text.split("\n")
+        return lines[n - 1].removesuffix("\r") if 1 <= n <= len(lines) else ""
 
 
 @dataclass(frozen=True)
@@ -82,7 +84,8 @@ class Diagnostic:
 
 
 def _excerpt(s: Span) -> list[str]:
-    text = s.source.line(s.line).rstrip("\r\n").replace("\t", " ")
+    # a control character shows as a space, so that the caret stays under its column
+    text = "".join(" " if unicodedata.category(c) in ("Cc", "Zl", "Zp") else c for c in s.source.line(s.line))
     gutter = f"{s.line:5d} | "
     width = (s.end_col - s.col) if s.end_line == s.line and s.end_col > s.col else 1
     width = max(1, min(width, max(1, len(text) - s.col + 1)))

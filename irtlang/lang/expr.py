@@ -247,7 +247,7 @@ def _call(e: A.Call, env: Env) -> Value:
         f = env.default_factor(q.dim) if q.dim not in (None, NONE) else 1.0
         # round: halves away from zero (as Fortran NINT and C round), not Python's round-half-to-even
         fn = {"floor": math.floor, "ceil": math.ceil,
-              "round": lambda x: math.copysign(math.floor(abs(x) + 0.5), x)}[name]
+              "round": lambda x: math.copysign(math.floor(abs(x)) + (abs(x) % 1.0 >= 0.5), x)}[name]
         return Quantity(float(fn(q.value / f)) * f, q.dim)
     except OverflowError:
         raise error(e.span, f"{name}() overflows") from None

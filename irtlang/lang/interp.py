@@ -217,6 +217,8 @@ class Interpreter(BindContext):
                 self.macros[k] = st
         except IrtError as e:
             self.diags.extend(e.diagnostics)
+        except RecursionError:  # blocks, calls and expressions nested beyond Python's stack
+            self.diags.add(Diagnostic(st.span, "too deeply nested (blocks, macro calls or expressions)"))
 
     def truth(self, expr) -> bool:
         v = evaluate(expr, self.env)
@@ -335,7 +337,8 @@ class Interpreter(BindContext):
         elsewhere = [n for n in NAMESPACES if n != ns and k in self._table(n)]
         hint = did_you_mean(name, [v.name for v in table.values()])
         if elsewhere:
-            raise error(span, f"'{name}' is a {elsewhere[0]}, not a {ns}", hint)
+            an = {n: ("an " if n[0] in "aeiou" else "a ") + n for n in (elsewhere[0], ns)}
+            raise error(span, f"'{name}' is {an[elsewhere[0]]}, not {an[ns]}", hint)
         raise error(span, f"undefined {ns} '{name}'", hint)
 
     def follow_on(self, span: Span, message: str) -> IrtError:
@@ -423,8 +426,10 @@ class Interpreter(BindContext):
         m = self.macros.get(k)
         if m is None:
             raise error(name_span, f"undefined macro '{name}'", did_you_mean(name, [x.name for x in self.macros.values()]))
+        if len(self.macro_stack) >= MAX_CALL_DEPTH:
+            raise error(span, f"MACRO calls nested more than {MAX_CALL_DEPTH} deep")
         if k in self.macro_stack:
-            raise error(span, f"recursive MACRO: {' -> '.join(self.macro_stack + [k])}")
+            raise error(span, "recursive MACRO: " + " -> ".join(self.macros[x].name for x in self.macro_stack + [k]))
         if len(args) != len(m.params):
             raise error(span, f"wrong number of arguments: macro {m.name} takes {len(m.params)}"
                         + (f" ({' '.join(m.params)})" if m.params else "") + f", got {len(args)}",

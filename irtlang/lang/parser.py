@@ -242,7 +242,29 @@ def _transform(t: _ToAst, tree):
     except VisitError as e:  # a diagnostic raised inside a rule (e.g. a bad {interpolation})
         if isinstance(e.orig_exc, IrtError):
             raise e.orig_exc from None
+        if isinstance(e.orig_exc, RecursionError):
+            raise _too_deep(t, tree) from None
         raise
+    except RecursionError:  # `x = 1 + 1 + ... + 1` with hundreds of terms nests as deep as it is long
+        raise _too_deep(t, tree) from None
+
+
+def _too_deep(t: _ToAst, tree) -> IrtError:
+    """The statement whose tree nests deepest (measured without recursion)."""
+    best, where = -1, tree
+    for st in (tree.children if tree.data == "start" else [tree]):
+        if not isinstance(st, Tree):
+            continue
+        depth, stack = 0, [(st, 1)]
+        while stack:
+            node, d = stack.pop()
+            depth = max(depth, d)
+            stack.extend((c, d + 1) for c in node.children if isinstance(c, Tree))
+        if depth > best:
+            best, where = depth, st
+    span = _meta_span(t.src, where.meta, t.lo, t.co) if not where.meta.empty else Span(t.src, 1, 1, 1, 2)
+    return error(span, f"this statement nests too deeply ({best} levels of operators or calls)",
+                 "split it into several assignments")
 
 
 # ---------------------------------------------------------------- syntax errors
@@ -265,9 +287,12 @@ def _describe_expected(expected) -> str:
 def _syntax_error(e: UnexpectedInput, src: Source, text: str, line_offset: int = 0, col_offset: int = 0):
     line = (e.line if e.line and e.line > 0 else text.count("\n") + 1)
     col = e.column if e.column and e.column > 0 else 1
+    if getattr(getattr(e, "token", None), "type", None) == "$END":  # lark places it on the last token
+        rows = text.split("\n")
+        line, col = len(rows), len(rows[-1]) + 1
     gl, gc = line + line_offset, col + (col_offset if line == 1 else 0)
     at = Span(src, gl, gc, gl, gc + 1)
-    line_text = text.splitlines()[line - 1] if text.splitlines()[line - 1:line] else ""
+    line_text = text.split("\n")[line - 1] if text.split("\n")[line - 1:line] else ""
 
     if isinstance(e, UnexpectedCharacters):
         ch = text[e.pos_in_stream] if e.pos_in_stream < len(text) else ""
@@ -309,7 +334,7 @@ def _syntax_error(e: UnexpectedInput, src: Source, text: str, line_offset: int =
     if ttype in ("_NL", "$END"):
         if tok is not None and ttype == "_NL":
             pass
-        what = "the line ends too early"
+        what = "the line ends too early" if ttype == "_NL" else "the expression ends too early"
         exp = _describe_expected(expected)
         return error(at, what + (f": {exp}" if exp else ""))
     val = str(tok)

@@ -149,6 +149,9 @@ def unit_interval(x):
     return None if 0.0 <= x <= 1.0 else "must be in [0, 1]"
 
 
+MAX_REPEAT = 100_000        # the largest n of n@v (and of WAVELENGTHS RANGE)
+
+
 # ---------------------------------------------------------------- keyword matching
 def match_keyword(word: str, allowed: Iterable[str], span: Span) -> str | None:
     """The keyword `word` stands for among `allowed`: exact, or a unique prefix of >= 3 letters."""
@@ -467,6 +470,8 @@ def _take_list(p: Param, cur: _Cursor, ctx, stop_kws: list, where: str):
             cnt = ctx.eval(it.count)
             if isinstance(cnt, str) or cnt.dim not in (None, NONE) or cnt.value != int(cnt.value) or cnt.value < 1:
                 raise error(it.count.span, "the count of n@v must be a whole number >= 1")
+            if cnt.value > MAX_REPEAT:  # `1e9@0.9` would build a list of a billion values
+                raise error(it.count.span, f"the count of n@v is {cnt.value:g}; at most {MAX_REPEAT} values")
             cur.next()
             raw.append((it.value, int(cnt.value)))
             continue

@@ -103,10 +103,9 @@ def glint_brdf(s2, n, wix, wiy, wiz, wox, woy, woz, nx, ny, nz):
     hm = math.sqrt(hx * hx + hy * hy + hz * hz)
     if hm == 0.0:
         return 0.0
-    cb = (hx * nx + hy * ny + hz * nz) / hm
-    if cb <= 0.0:
+    cb = min((hx * nx + hy * ny + hz * nz) / hm, 1.0)
+    if cb <= 1e-60:                      # p underflows long before: exp(-1/(cb^2 s^2))
         return 0.0
-    cb = min(cb, 1.0)
     tan2 = (1.0 - cb) * (1.0 + cb) / (cb * cb)
     if tan2 > 700.0 * s2:
         return 0.0
@@ -115,7 +114,7 @@ def glint_brdf(s2, n, wix, wiy, wiz, wox, woy, woz, nx, ny, nz):
     F = fresnel_unpolarized(cih, 1.0, n)
     S = 1.0 / (1.0 + shadow_lambda(ci, s2) + shadow_lambda(co, s2))
     cb2 = cb * cb
-    return F * p * S / (4.0 * ci * co * cb2 * cb2)
+    return F * p * S / (4.0 * ci * max(co, MU_MIN) * cb2 * cb2)
 
 
 @numba.njit(cache=True, fastmath=False)
@@ -212,7 +211,7 @@ def _glint_pdf(s2, wix, wiy, wiz, wox, woy, woz, nx, ny, nz):
         return 0.0
     cb = min((hx * nx + hy * ny + hz * nz) / hm, 1.0)
     cih = (wix * hx + wiy * hy + wiz * hz) / hm
-    if cb <= 0.0 or cih <= 0.0:
+    if cb <= 1e-60 or cih <= 1e-200:
         return 0.0
     tan2 = (1.0 - cb) * (1.0 + cb) / (cb * cb)
     if tan2 > 700.0 * s2:
