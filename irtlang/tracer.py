@@ -142,6 +142,8 @@ def run_trace(scene, *, seed: int, level: int, halt: float, until_error: float |
     ledger_sq = np.zeros((rows, L))
     H = min(level, HISTORY_CAP) if history else 0
     chunk = mod.CHUNK
+    # whole chunks per batch: chunk boundaries (hence the order of every tally sum) never depend on the batch size
+    batch = max(chunk, batch - batch % chunk)
     rec_parts: list[dict] = []
     target = list(scene.objects).index(until_target) if until_target else None
     prog = progress or Progress(total)
@@ -167,7 +169,8 @@ def run_trace(scene, *, seed: int, level: int, halt: float, until_error: float |
                                flux=np.zeros((nch, rcap)), line=np.zeros((nch, rcap), np.int32),
                                source=np.zeros((nch, rcap), np.int32), object=np.zeros((nch, rcap), np.int32),
                                events=np.zeros((nch, rcap), np.int32), flags=np.zeros((nch, rcap), np.uint32),
-                               history=np.zeros((nch, rcap, H), np.int32))
+                               history=np.zeros((nch, rcap, H), np.int32), opl=np.zeros((nch, rcap)),
+                               start=np.zeros((nch, rcap, 2)))
                     rec_n = np.zeros(nch, np.int64)
                     mod.trace_batch(first_of_pass + start, n, total, seed, level, halt, pk.r_importance,
                                     s_f, s_i, mesh_i, pk.bvh_bmin, pk.bvh_bmax, pk.bvh_child, pk.bvh_count,
@@ -177,12 +180,12 @@ def run_trace(scene, *, seed: int, level: int, halt: float, until_error: float |
                                     pk.map_off, pk.map_nlat, pk.map_nlon, pk.mod_kind, pk.mod_P,
                                     pk.mod_slab, pk.med_n, pk.med_alpha, pk.med_row, pk.med_sig, pk.med_alb, pk.med_g, pk.med_phase,
                                     pk.med_depol, pk.med_tgt, pk.med_nee, pk.coat_R, pk.coat_T,
-                                    pk.d_nx, pk.d_ny, pk.d_ext, d_off, pk.src_kind, pk.src_dir, pk.src_par,
+                                    pk.d_nx, pk.d_ny, pk.d_ext, d_off, pk.d_qe, pk.src_kind, pk.src_dir, pk.src_par,
                                     pk.src_R, pk.src_Th, pk.src_Tl, pk.src_n, pk.src_off, pk.src_w,
                                     pk.src_random, pk.src_toward, pk.src_pts, pk.src_pts_off, led, inc_sq,
                                     dep_idx, dep_w, dep_n, rec["position"], rec["direction"], rec["flux"],
                                     rec["line"], rec["source"], rec["object"], rec["events"], rec["flags"],
-                                    rec["history"], rec_n)
+                                    rec["history"], rec["opl"], rec["start"], rec_n)
                     ok = True
                     if np.any(dep_n < 0):
                         cap *= 4   # a chunk overflowed its deposit list: trace the batch again with more room

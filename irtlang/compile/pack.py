@@ -140,6 +140,7 @@ class Packed:
     d_nx: np.ndarray
     d_ny: np.ndarray
     d_ext: np.ndarray               # (D, 4) x0 x1 y0 y1 (metres)
+    d_qe: np.ndarray                # (D, L) quantum efficiency applied to the image
     detector_names: list
     # sources
     src_kind: np.ndarray
@@ -504,7 +505,10 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
     d_nx = np.zeros(nD, np.int32)
     d_ny = np.zeros(nD, np.int32)
     d_ext = np.zeros((nD, 4))
+    d_qe = np.ones((max(nD, 1), L))
     for d, (i, obj) in enumerate(det_rows):
+        if obj.detector.qe is not None:
+            d_qe[d] = obj.detector.qe
         ap = next(s.aperture for s in obj.surfaces if s.aperture is not None)
         if ap.kind == "RECT":
             hx, hy = ap.params
@@ -530,7 +534,7 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
                   o_sc_first, o_sc_cnt, sp_kind, sp_model, sp_map, sp_cls_off, sp_cls_n, sp_rays, sp_tgt, cls_models,
                   map_data, map_off, map_nlat, map_nlon,
                   mod_kind, mod_P, mod_slab, [scene.models[m].name for m in used_models],
-                  d_obj, d_nx, d_ny, d_ext, [scene.objects[obj_keys[i]].name for i, _ in det_rows], **src)
+                  d_obj, d_nx, d_ny, d_ext, d_qe, [scene.objects[obj_keys[i]].name for i, _ in det_rows], **src)
 
 
 def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:

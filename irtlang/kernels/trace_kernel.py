@@ -55,7 +55,7 @@ F_IMPORTANCE = True
 
 CHUNK = 1024
 SMAX = 256          # pending paths per source ray (splitting, rays toward a target)
-SW = 17             # stack entry: ph(3) pl(3) d(3) w w0 ev excl nee path flags jlast, then the history
+SW = 20             # stack entry: ph(3) pl(3) d(3) w w0 ev excl nee path flags jlast opl sx sy, then the history
 # ledger columns
 C_INC, C_REF, C_TRA, C_SCA, C_ABS = 0, 1, 2, 3, 4
 # record flags
@@ -383,7 +383,8 @@ def _turn(dx, dy, dz, mu, u):
 @numba.njit(cache=True, inline="always")
 def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random, src_toward,
          src_pts, src_pts_off, o_bc, o_br):
-    """Ray i: (source, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w).  Ids past `total` start another
+    """Ray i: (source, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, sx, sy); (sx, sy) is the start point
+    in the source's own frame (the pupil coordinates of a GRID).  Ids past `total` start another
     pass over the sources (TRACE UNTIL ERROR) with fresh random numbers."""
     ii = i % total
     s = 0
@@ -495,7 +496,7 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
                     w = 0.0
                 else:
                     w *= c * omega / math.pi
-            return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w
+            return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w, lx, ly
         if kind == 4:
             x, y, z = uniform_cone(u2, u3, math.cos(src_par[s, 1]))
         elif kind == 3 and src_par[s, 1] < 1.5707963267948966:
@@ -508,12 +509,12 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
         dwx = x * t1x + y * t2x + z * nwx
         dwy = x * t1y + y * t2y + z * nwy
         dwz = x * t1z + y * t2z + z * nwz
-        return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w
+        return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w, lx, ly
     dwx = src_R[s, 0] * ldx + src_R[s, 1] * ldy + src_R[s, 2] * ldz
     dwy = src_R[s, 3] * ldx + src_R[s, 4] * ldy + src_R[s, 5] * ldz
     dwz = src_R[s, 6] * ldx + src_R[s, 7] * ldy + src_R[s, 8] * ldz
     m = math.sqrt(dwx * dwx + dwy * dwy + dwz * dwz)
-    return s, line, phx, phy, phz, plx, ply, plz, dwx / m, dwy / m, dwz / m, w
+    return s, line, phx, phy, phz, plx, ply, plz, dwx / m, dwy / m, dwz / m, w, lx, ly
 
 
 
@@ -546,7 +547,8 @@ def _bsdf_direct(kind, P, k, cos_i):
 
 # ---------------------------------------------------------------------------------------------- the trace
 @numba.njit(cache=True, inline="always")
-def _push(stack, sp, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w0, ev, excl, nee, path, flags, jlast, hist, H):
+def _push(stack, sp, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w0, ev, excl, nee, path, flags, jlast, opl, sx, sy,
+          hist, H):
     stack[sp, 0] = phx
     stack[sp, 1] = phy
     stack[sp, 2] = phz
@@ -564,6 +566,9 @@ def _push(stack, sp, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w0, ev, excl, 
     stack[sp, 14] = path
     stack[sp, 15] = flags
     stack[sp, 16] = jlast
+    stack[sp, 17] = opl
+    stack[sp, 18] = sx
+    stack[sp, 19] = sy
     for h in range(H):
         stack[sp, SW + h] = hist[h]
 
@@ -576,11 +581,11 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                 mod_kind, mod_P, mod_slab,
                 med_n, med_alpha, med_row, med_sig, med_alb, med_g, med_phase, med_depol, med_tgt, med_nee,
                 coat_R, coat_T,
-                d_nx, d_ny, d_ext, d_off,
+                d_nx, d_ny, d_ext, d_off, d_qe,
                 src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random, src_toward,
                 src_pts, src_pts_off,
                 led, inc_sq, dep_idx, dep_w, dep_n, rec_pos, rec_dir, rec_w, rec_line, rec_src, rec_obj, rec_ev,
-                rec_flags, rec_hist, rec_n):
+                rec_flags, rec_hist, rec_opl, rec_start, rec_n):
     """Trace source rays first .. first+n-1 with every path they spawn.  Per chunk c: led[c] (rows, 5, L),
     inc_sq[c] (rows, L), deposits dep_idx/dep_w[c, :dep_n[c]] and records rec_*[c, :rec_n[c]] (one per
     path end); a count of -1 marks a chunk that overflowed its list (the caller retries with more room).
@@ -602,13 +607,14 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
         Pm = mod_P[0]
         for ii in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             i = first + ii
-            s, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w = _gen(
+            s, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, sx0, sy0 = _gen(
                 i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random,
                 src_toward, src_pts, src_pts_off, o_bc, o_br)
             led[c, r_emit, C_INC, line] += w
             for h in range(H):
                 hist[h] = -1.0
-            _push(stack, 0, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w, 0.0, -1.0, 0.0, 0.0, 0.0, -1.0, hist, H)
+            _push(stack, 0, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w, 0.0, -1.0, 0.0, 0.0, 0.0, -1.0, 0.0, sx0,
+                  sy0, hist, H)
             sp = 1
             npath = 1
             while sp > 0:
@@ -630,6 +636,9 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                 path = int(stack[sp, 14])
                 flags = int(stack[sp, 15])
                 jlast = int(stack[sp, 16])
+                opl = stack[sp, 17]
+                sx0 = stack[sp, 18]
+                sy0 = stack[sp, 19]
                 for h in range(H):
                     hist[h] = stack[sp, SW + h]
                 last = -1
@@ -679,6 +688,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                             sdist = -math.log(uf) / sig
                             if sdist < t:
                                 # a scattering event inside the volume, before the surface
+                                opl += med_n[m1, line] * sdist
                                 phx, plx = _adv(phx, plx, sdist, dx)
                                 phy, ply = _adv(phy, ply, sdist, dy)
                                 phz, plz = _adv(phz, plz, sdist, dz)
@@ -705,7 +715,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                         cw = w * _phase(pk, gg, gam, mu_) * TWO_PI * omc / nr
                                         if cw > 0.0 and sp < SMAX:
                                             _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev,
-                                                  -1.0, 1.0, npath, FL_SCATTERED, -1.0, hist, H)
+                                                  -1.0, 1.0, npath, FL_SCATTERED, -1.0, opl, sx0, sy0, hist, H)
                                             sp += 1
                                             npath += 1
                                             led[c, r_imp, C_ABS, line] -= cw
@@ -740,6 +750,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                     phx, plx = _adv(phx, plx, t, dx)
                     phy, ply = _adv(phy, ply, t, dy)
                     phz, plz = _adv(phz, plz, t, dz)
+                    opl += med_n[m1, line] * t
                     if not (math.isfinite(phx) and math.isfinite(phy) and math.isfinite(phz)):
                         led[c, r_lost, C_ABS, line] += w
                         flags |= FL_LOST
@@ -772,7 +783,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                             iy = min(ny - 1, int((ly - y0) / (y1 - y0) * ny))
                             if ndep < cap:
                                 dep_idx[c, ndep] = d_off[dd] + (line * ny + iy) * nx + ix
-                                dep_w[c, ndep] = w
+                                dep_w[c, ndep] = w * d_qe[dd, line]
                             ndep += 1
                     # the interface: specular R and T, absorbed A
                     if it == 0:
@@ -855,7 +866,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                     if F_HISTORY and ev - 1 < H:
                                         hist[ev - 1] = o * 8 + EV_S
                                     _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev, -1.0,
-                                          1.0, npath, FL_SCATTERED, j, hist, H)
+                                          1.0, npath, FL_SCATTERED, j, opl, sx0, sy0, hist, H)
                                     sp += 1
                                     npath += 1
                                     led[c, r_imp, C_ABS, line] -= cw
@@ -915,7 +926,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                     if F_HISTORY and ev - 1 < H:
                                         hist[ev - 1] = o * 8 + EV_S
                                     _push(stack, sp, phx, phy, phz, plx, ply, plz, sx, sy, sz, cw, w0 / nsplit, ev,
-                                          sc_tgt, 0.0, npath, flags | FL_SCATTERED, j, hist, H)
+                                          sc_tgt, 0.0, npath, flags | FL_SCATTERED, j, opl, sx0, sy0, hist, H)
                                     sp += 1
                                     npath += 1
                                 elif cw > 0.0:
@@ -959,6 +970,9 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                         rec_obj[c, nrec] = last
                         rec_ev[c, nrec] = ev
                         rec_flags[c, nrec] = flags
+                        rec_opl[c, nrec] = opl
+                        rec_start[c, nrec, 0] = sx0
+                        rec_start[c, nrec, 1] = sy0
                         for h in range(H):
                             rec_hist[c, nrec, h] = int(hist[h])
                     nrec += 1

@@ -257,7 +257,8 @@ def _coating(it, b, st):
 }, default=Form((Name("name"), Variants("source", {
     "SOLAR": Form((), (Clause("TSI", (V("tsi", (-2, 0, 0, 1, 0), check=positive),), doc="total solar irradiance at 1 AU"),)),
     "TABLE": Form((Path("file"),)),
-    "BLACKBODY": Form((V("temperature", (0, 0, 0, 0, 1), check=positive),)),
+    "BLACKBODY": Form((V("temperature", (0, 0, 0, 0, 1),  # beyond 1e6 K the Planck law overflows a float
+                         check=lambda t: None if 0 < t <= 1e6 else "must be in (0, 1e6] K"),)),
 }))))),), "materials", "define a spectrum (SOLAR, TABLE, BLACKBODY); SPECTRUM OF obj: flux per line")
 def _spectrum(it, b, st):
     if b.variants["kind"] == "OF":
@@ -418,8 +419,9 @@ def _rotate(it, b, st):
     _update(it, obj, transform=obj.transform.rotated(b["axis"], b["angle"], tuple(b.get("about", (0.0, 0.0, 0.0)))))
 
 
-@command("DETECTOR", Form((Choice("what", ("PIXELS",)), V("nx", integer=True), V("ny", integer=True, optional=True))),
-         "geometry", "the current object records an image of nx x ny pixels")
+@command("DETECTOR", Form((Choice("what", ("PIXELS",)), V("nx", integer=True), V("ny", integer=True, optional=True)),
+                          (Clause("QE", (PL("qe", check=unit_interval),), doc="quantum efficiency per line"),)),
+         "geometry", "the current object records an image of nx x ny pixels [QE per line]")
 def _detector(it, b, st):
     obj = _current(it, b)
     nx = b["nx"]
@@ -434,7 +436,8 @@ def _detector(it, b, st):
     if not ap:
         raise error(b.span, f"object {obj.name} has no aperture: the pixel grid needs its bounding rectangle",
                     "add RECT hx hy (or DISK r) to the surface")
-    _update(it, obj, detector=M.Detector(nx, ny, b.span))
+    qe = b["qe"].values if "qe" in b else None
+    _update(it, obj, detector=M.Detector(nx, ny, b.span, qe))
 
 
 @command("GROUP", Form((Name("name"),)), "geometry", "objects up to END GROUP live in the group's own frame")
@@ -745,9 +748,9 @@ def _spots(it, b, st):
 
 @command("FOCUS", Form(), "analysis", "best-focus shift along the axis and its RMS spot radius")
 def _focus(it, b, st):
-    # FOCUS sets FOCUS_SHIFT and FOCUS_RMS (lengths); a check run has no rays, so they start undefined (NaN)
-    it.assign("FOCUS_SHIFT", Quantity(math.nan, LENGTH), b.span)
-    it.assign("FOCUS_RMS", Quantity(math.nan, LENGTH), b.span)
+    # FOCUS sets FOCUS_SHIFT and FOCUS_RMS (lengths); a check run has no rays, so there they hold 0
+    it.assign("FOCUS_SHIFT", Quantity(0.0, LENGTH), b.span)
+    it.assign("FOCUS_RMS", Quantity(0.0, LENGTH), b.span)
     it.step("FOCUS", {}, b.span)
 
 

@@ -288,7 +288,7 @@ def _syntax_error(e: UnexpectedInput, src: Source, text: str, line_offset: int =
     line = (e.line if e.line and e.line > 0 else text.count("\n") + 1)
     col = e.column if e.column and e.column > 0 else 1
     if getattr(getattr(e, "token", None), "type", None) == "$END":  # lark places it on the last token
-        rows = text.split("\n")
+        rows = text.rstrip("\r\n").split("\n")
         line, col = len(rows), len(rows[-1]) + 1
     gl, gc = line + line_offset, col + (col_offset if line == 1 else 0)
     at = Span(src, gl, gc, gl, gc + 1)
@@ -334,7 +334,8 @@ def _syntax_error(e: UnexpectedInput, src: Source, text: str, line_offset: int =
     if ttype in ("_NL", "$END"):
         if tok is not None and ttype == "_NL":
             pass
-        what = "the line ends too early" if ttype == "_NL" else "the expression ends too early"
+        what = ("the line ends too early" if ttype == "_NL" else
+                "the expression ends too early" if line_offset or col_offset else "the script ends too early")
         exp = _describe_expected(expected)
         return error(at, what + (f": {exp}" if exp else ""))
     val = str(tok)

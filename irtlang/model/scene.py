@@ -160,6 +160,7 @@ class Detector:
     nx: int
     ny: int
     span: Span = NO_SPAN
+    qe: tuple | None = None     # quantum efficiency per line, applied to the image
 
 
 @dataclass(frozen=True)

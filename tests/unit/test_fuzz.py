@@ -357,12 +357,19 @@ def one(text: str) -> Diagnostic:
     # OverflowError (or a list of a billion values) from a huge n@v or RANGE count
     ("COATING al REFLECT 1e308@0.9\n", 1, 20, "the count of n@v is 1e+308; at most 100000 values"),
     ("WAVELENGTHS RANGE 300 2500 1e9 NM\n", 1, 28, "WAVELENGTHS RANGE count is 1e+09; at most 100000 lines"),
+    # NaN from the Planck law of an absurd temperature (a RuntimeWarning in the rebinning)
+    ("WAVELENGTHS RANGE 400 900 11 NM\nSPECTRUM star BLACKBODY 1e308 K\n", 2, 25,
+     "SPECTRUM BLACKBODY: temperature must be in (0, 1e6] K, got 1e+308"),
+    # a continuation swallowed the last newline: the end of the script was reported on a line after it
+    ("DO & ", 1, 6, "the script ends too early: expected a name"),
     # RecursionError: a long expression, deeply nested blocks
     ("x = 1" + " + 1" * 600 + "\n", 1, 1, "this statement nests too deeply (602 levels of operators or calls)"),
     ("PRINT '{" + "1+" * 600 + "1}'\n", 1, 9, "this statement nests too deeply (601 levels of operators or calls)"),
 ])
 def test_crash_reproducers(text, line, col, message):
-    d = one(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        d = one(text)
     assert (d.span.line, d.span.col, d.message) == (line, col, message)
 
 

@@ -26,8 +26,9 @@ Convention of the reference values: the glint reflectance factor is pi times the
 RAYLEIGH), i.e. rho = pi F p S / (4 mu_s mu_v cos^4 beta).  At the specular point (beta = 0) for n = 1.34
 this gives 0.258724 (30/30 deg, U = 5), 0.190513 (U = 7), 0.136522 (U = 10) and 0.370524 (45/45, U = 7),
 the values of ORACLES.md to their 4 digits.  Shadowing does not discriminate there: at 30 and 45 deg
-L(mu) < 1e-10 for these winds, so the values hold with or without it; they rule out a reflectance factor
-without the factor pi (four times smaller) and a slope variance per axis (s^2/2).
+L(mu) < 1e-10 for these winds, so the values hold with or without it.  They do rule out a reflectance factor
+without the factor pi (pi times smaller) and reading s^2 as the variance per slope axis (total 2 s^2: half as
+large at beta = 0).
 
 Reciprocity: the glint term is reciprocal (symmetric in wi, wo); the Lambert term as specified depends on
 mu_s only (through TIS), so the full model is reciprocal only where TIS(mu_s) = TIS(mu_v) or ALBEDO <= TIS.
