@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -124,100 +124,156 @@ class Progress:
             self.stream.flush()
 
 
+@dataclass
+class BatchTally:
+    """One batch's raw chunk tallies, before reduction (what a worker sends back)."""
+
+    first: int
+    n: int
+    led: np.ndarray
+    inc_sq: np.ndarray
+    dep_idx: np.ndarray
+    dep_w: np.ndarray
+    dep_n: np.ndarray
+    records: dict | None
+
+
+class TraceContext:
+    """A packed scene with its specialized kernel, ready to trace any batch of ray ids (built once per worker)."""
+
+    def __init__(self, pk: Packed, *, seed: int, level: int, halt: float, records: bool, history: bool):
+        self.pk, self.seed, self.level, self.halt = pk, seed, level, halt
+        self.records, self.history = records, history
+        self.mod = kernel_module(pk.features)
+        self.o_bc, self.o_br = _object_bounds(pk)
+        self.s_f, self.s_i, self.mesh_i = pk.surface_tables()
+        self.L = len(pk.lines_nm)
+        self.rows = pk.n_rows
+        self.total = pk.n_rays_total
+        self.H = min(level, HISTORY_CAP) if history else 0
+        self.d_sizes = [self.L * int(ny) * int(nx) for nx, ny in zip(pk.d_nx, pk.d_ny)]
+        self.d_off = (np.concatenate([[0], np.cumsum(self.d_sizes)[:-1]]).astype(np.int64) if self.d_sizes
+                      else np.zeros(0, np.int64))
+        self.cap = 2 * self.mod.CHUNK
+        self.rcap = 2 * self.mod.CHUNK if records else 1
+
+    def run_batch(self, first: int, n: int) -> BatchTally:
+        pk, L, rows, H = self.pk, self.L, self.rows, self.H
+        nch = (n + self.mod.CHUNK - 1) // self.mod.CHUNK
+        while True:
+            led = np.zeros((nch, rows, 5, L))
+            inc_sq = np.zeros((nch, rows, L))
+            dep_idx = np.zeros((nch, self.cap), np.int64)
+            dep_w = np.zeros((nch, self.cap))
+            dep_n = np.zeros(nch, np.int64)
+            rc = self.rcap
+            rec = dict(position=np.zeros((nch, rc, 3)), direction=np.zeros((nch, rc, 3)), flux=np.zeros((nch, rc)),
+                       line=np.zeros((nch, rc), np.int32), source=np.zeros((nch, rc), np.int32),
+                       object=np.zeros((nch, rc), np.int32), events=np.zeros((nch, rc), np.int32),
+                       flags=np.zeros((nch, rc), np.uint32), history=np.zeros((nch, rc, H), np.int32),
+                       opl=np.zeros((nch, rc)), start=np.zeros((nch, rc, 2)))
+            rec_n = np.zeros(nch, np.int64)
+            self.mod.trace_batch(first, n, self.total, self.seed, self.level, self.halt, pk.r_importance,
+                                 self.s_f, self.s_i, self.mesh_i, pk.bvh_bmin, pk.bvh_bmax, pk.bvh_child,
+                                 pk.bvh_count, pk.bvh_tris, pk.bvh_ids, pk.bvh_fn, pk.o_itf, pk.o_coat, pk.o_back,
+                                 pk.o_front, pk.o_det, self.o_bc, self.o_br, pk.o_sc_first, pk.o_sc_cnt, pk.sp_kind,
+                                 pk.sp_model, pk.sp_map, pk.sp_cls_off, pk.sp_cls_n, pk.sp_rays, pk.sp_tgt,
+                                 pk.cls_models, pk.map_data, pk.map_off, pk.map_nlat, pk.map_nlon, pk.mod_kind,
+                                 pk.mod_P, pk.mod_slab, pk.med_n, pk.med_alpha, pk.med_row, pk.med_sig, pk.med_alb,
+                                 pk.med_g, pk.med_phase, pk.med_depol, pk.med_tgt, pk.med_nee, pk.coat_R, pk.coat_T,
+                                 pk.d_nx, pk.d_ny, pk.d_ext, self.d_off, pk.d_qe, pk.src_kind, pk.src_dir,
+                                 pk.src_par, pk.src_R, pk.src_Th, pk.src_Tl, pk.src_n, pk.src_off, pk.src_w,
+                                 pk.src_random, pk.src_toward, pk.src_pts, pk.src_pts_off, led, inc_sq, dep_idx,
+                                 dep_w, dep_n, rec["position"], rec["direction"], rec["flux"], rec["line"],
+                                 rec["source"], rec["object"], rec["events"], rec["flags"], rec["history"],
+                                 rec["opl"], rec["start"], rec_n)
+            ok = True
+            if np.any(dep_n < 0):
+                self.cap *= 4   # a chunk overflowed its deposit list: trace the batch again with more room
+                ok = False
+            if self.records and np.any(rec_n < 0):
+                self.rcap *= 4
+                ok = False
+            if ok:
+                break
+        recs = None
+        if self.records:
+            recs = {k: np.concatenate([v[c, :rec_n[c]] for c in range(nch)]) for k, v in rec.items()}
+        return BatchTally(first, n, led, inc_sq, dep_idx, dep_w, dep_n, recs)
+
+
+class Accumulator:
+    """Reduces batch tallies in ray-id order: the result does not depend on who traced which batch."""
+
+    def __init__(self, ctx: TraceContext):
+        self.ctx = ctx
+        self.ledger = np.zeros((ctx.rows, 5, ctx.L))
+        self.ledger_sq = np.zeros((ctx.rows, ctx.L))
+        self.img = np.zeros(int(sum(ctx.d_sizes)))
+        self.img_sq = np.zeros_like(self.img)
+        self.rec_parts: list[dict] = []
+        self.done = 0
+
+    def add(self, t: BatchTally) -> None:
+        self.ctx.mod.reduce_batch(t.led, t.inc_sq, t.dep_idx, t.dep_w, t.dep_n, self.ledger, self.ledger_sq,
+                                  self.img, self.img_sq)
+        if t.records is not None:
+            self.rec_parts.append(t.records)
+        self.done += t.n
+
+    def result(self, passes: int = 1, interrupted: bool = False) -> TraceResult:
+        ctx = self.ctx
+        images = {}
+        for d, name in enumerate(ctx.pk.detector_names):
+            shape = (ctx.L, int(ctx.pk.d_ny[d]), int(ctx.pk.d_nx[d]))
+            a, b = int(ctx.d_off[d]), int(ctx.d_off[d]) + ctx.d_sizes[d]
+            images[name] = (self.img[a:b].reshape(shape), self.img_sq[a:b].reshape(shape))
+        recs = None
+        if ctx.records and self.rec_parts:
+            recs = {k: np.concatenate([r[k] for r in self.rec_parts]) for k in self.rec_parts[0]}
+        return TraceResult(ctx.pk, self.ledger, self.ledger_sq, images, recs, self.done, ctx.seed, interrupted, passes)
+
+
+def batches(total: int, batch: int, passes: int = 0):
+    """(first ray id, count) of each batch of one pass over the sources."""
+    start = 0
+    while start < total:
+        n = min(batch, total - start)
+        yield passes * total + start, n
+        start += n
+
+
 def run_trace(scene, *, seed: int, level: int, halt: float, until_error: float | None = None,
               until_target: str | None = None, records: bool = False, history: bool = False,
-              batch: int = 1 << 16, max_passes: int = 1000, progress: Progress | None = None) -> TraceResult:
+              batch: int = 1 << 16, max_passes: int = 1000, progress: Progress | None = None,
+              runner=None) -> TraceResult:
+    """Trace a scene.  `runner(ctx, units) -> iterable of BatchTally in order` may run the batches elsewhere
+    (irtlang.cluster); by default they run here, one after another, each in parallel over Numba threads."""
     pk = pack(scene, records=records, history=history)
-    mod = kernel_module(pk.features)
-    L = len(pk.lines_nm)
-    rows = pk.n_rows
-    total = pk.n_rays_total
-    o_bc, o_br = _object_bounds(pk)
-    s_f, s_i, mesh_i = pk.surface_tables()
-    d_sizes = [L * int(ny) * int(nx) for nx, ny in zip(pk.d_nx, pk.d_ny)]
-    d_off = np.concatenate([[0], np.cumsum(d_sizes)[:-1]]).astype(np.int64) if d_sizes else np.zeros(0, np.int64)
-    img = np.zeros(int(sum(d_sizes)))
-    img_sq = np.zeros_like(img)
-    ledger = np.zeros((rows, 5, L))
-    ledger_sq = np.zeros((rows, L))
-    H = min(level, HISTORY_CAP) if history else 0
-    chunk = mod.CHUNK
-    # whole chunks per batch: chunk boundaries (hence the order of every tally sum) never depend on the batch size
-    batch = max(chunk, batch - batch % chunk)
-    rec_parts: list[dict] = []
+    ctx = TraceContext(pk, seed=seed, level=level, halt=halt, records=records, history=history)
+    # chunks are global (ray id // CHUNK), so results do not depend on the batch size: whole chunks per batch
+    chunk = ctx.mod.CHUNK
+    batch = max(chunk, (batch + chunk - 1) // chunk * chunk)
+    acc = Accumulator(ctx)
     target = list(scene.objects).index(until_target) if until_target else None
-    prog = progress or Progress(total)
-    done = 0
+    prog = progress or Progress(ctx.total)
     passes = 0
     interrupted = False
-    cap = 2 * chunk
-    rcap = 2 * chunk if records else 1
+    run = runner or (lambda c, units: (c.run_batch(f, n) for f, n in units))
     try:
         while True:
-            first_of_pass = passes * total
-            start = 0
-            while start < total:
-                n = min(batch, total - start)
-                nch = (n + chunk - 1) // chunk
-                while True:
-                    led = np.zeros((nch, rows, 5, L))
-                    inc_sq = np.zeros((nch, rows, L))
-                    dep_idx = np.zeros((nch, cap), np.int64)
-                    dep_w = np.zeros((nch, cap))
-                    dep_n = np.zeros(nch, np.int64)
-                    rec = dict(position=np.zeros((nch, rcap, 3)), direction=np.zeros((nch, rcap, 3)),
-                               flux=np.zeros((nch, rcap)), line=np.zeros((nch, rcap), np.int32),
-                               source=np.zeros((nch, rcap), np.int32), object=np.zeros((nch, rcap), np.int32),
-                               events=np.zeros((nch, rcap), np.int32), flags=np.zeros((nch, rcap), np.uint32),
-                               history=np.zeros((nch, rcap, H), np.int32), opl=np.zeros((nch, rcap)),
-                               start=np.zeros((nch, rcap, 2)))
-                    rec_n = np.zeros(nch, np.int64)
-                    mod.trace_batch(first_of_pass + start, n, total, seed, level, halt, pk.r_importance,
-                                    s_f, s_i, mesh_i, pk.bvh_bmin, pk.bvh_bmax, pk.bvh_child, pk.bvh_count,
-                                    pk.bvh_tris, pk.bvh_ids, pk.bvh_fn, pk.o_itf, pk.o_coat, pk.o_back, pk.o_front,
-                                    pk.o_det, o_bc, o_br, pk.o_sc_first, pk.o_sc_cnt, pk.sp_kind, pk.sp_model, pk.sp_map,
-                                    pk.sp_cls_off, pk.sp_cls_n, pk.sp_rays, pk.sp_tgt, pk.cls_models, pk.map_data,
-                                    pk.map_off, pk.map_nlat, pk.map_nlon, pk.mod_kind, pk.mod_P,
-                                    pk.mod_slab, pk.med_n, pk.med_alpha, pk.med_row, pk.med_sig, pk.med_alb, pk.med_g, pk.med_phase,
-                                    pk.med_depol, pk.med_tgt, pk.med_nee, pk.coat_R, pk.coat_T,
-                                    pk.d_nx, pk.d_ny, pk.d_ext, d_off, pk.d_qe, pk.src_kind, pk.src_dir, pk.src_par,
-                                    pk.src_R, pk.src_Th, pk.src_Tl, pk.src_n, pk.src_off, pk.src_w,
-                                    pk.src_random, pk.src_toward, pk.src_pts, pk.src_pts_off, led, inc_sq,
-                                    dep_idx, dep_w, dep_n, rec["position"], rec["direction"], rec["flux"],
-                                    rec["line"], rec["source"], rec["object"], rec["events"], rec["flags"],
-                                    rec["history"], rec["opl"], rec["start"], rec_n)
-                    ok = True
-                    if np.any(dep_n < 0):
-                        cap *= 4   # a chunk overflowed its deposit list: trace the batch again with more room
-                        ok = False
-                    if records and np.any(rec_n < 0):
-                        rcap *= 4
-                        ok = False
-                    if ok:
-                        break
-                mod.reduce_batch(led, inc_sq, dep_idx, dep_w, dep_n, ledger, ledger_sq, img, img_sq)
-                if records:
-                    rec_parts.append({k: np.concatenate([v[c, :rec_n[c]] for c in range(nch)]) for k, v in rec.items()})
-                start += n
-                done += n
-                prog.update(done)
+            for t in run(ctx, list(batches(ctx.total, batch, passes))):
+                acc.add(t)
+                prog.update(acc.done)
             passes += 1
             if until_error is None or target is None or passes >= max_passes:
                 break
-            s1 = ledger[target, 0].sum()
-            se = standard_error(s1, ledger_sq[target].sum(), done)
+            s1 = acc.ledger[target, 0].sum()
+            se = standard_error(s1, acc.ledger_sq[target].sum(), acc.done)
             if s1 > 0 and se / s1 <= until_error:
                 break
     except KeyboardInterrupt:
         interrupted = True
-    prog.update(done, force=True)
+    prog.update(acc.done, force=True)
     prog.close()
-    images = {}
-    for d, name in enumerate(pk.detector_names):
-        shape = (L, int(pk.d_ny[d]), int(pk.d_nx[d]))
-        a, b = int(d_off[d]), int(d_off[d]) + d_sizes[d]
-        images[name] = (img[a:b].reshape(shape), img_sq[a:b].reshape(shape))
-    recs = None
-    if records and rec_parts:
-        recs = {k: np.concatenate([r[k] for r in rec_parts]) for k in rec_parts[0]}
-    return TraceResult(pk, ledger, ledger_sq, images, recs, done, seed, interrupted, passes)
+    return acc.result(passes, interrupted)

@@ -58,8 +58,8 @@ def solar_reference() -> tuple[np.ndarray, np.ndarray]:
 def planck_exitance(w_nm, T) -> np.ndarray:
     """pi * B_lambda(T): spectral exitance of a black body, W/m2/nm."""
     lam = np.asarray(w_nm, float) * 1e-9
-    x = H * C / (lam * KB * T)
-    with np.errstate(over="ignore"):
+    with np.errstate(over="ignore", divide="ignore"):  # a tiny T: x = inf, clamped below (exitance ~ 0)
+        x = H * C / (lam * KB * T)
         b = 2 * H * C ** 2 / lam ** 5 / np.expm1(np.minimum(x, 700.0))
     return math.pi * b * 1e-9
 

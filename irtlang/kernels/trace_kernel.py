@@ -838,13 +838,14 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                         Pm = mod_P[sc]
                         Rb, Tb = _bsdf_albedo(mk, Pm, line, cos_i)
                         if mod_slab[sc] == 1:
-                            # a slab model is the whole interaction; its direct transmission is the specular part
-                            Tdir = _bsdf_direct(mk, Pm, line, cos_i)
+                            # a slab model is the whole interaction; its own sampling includes the direct beam
                             R = 0.0
-                            T = Tdir
-                            diffuse = max(0.0, Rb + Tb - Tdir)
+                            T = 0.0
+                            diffuse = Rb + Tb
+                            if nee:
+                                T = _bsdf_direct(mk, Pm, line, cos_i)
                         else:
-                            rho = Rb + Tb
+                            rho = min(1.0, Rb + Tb)
                             R *= (1.0 - rho)
                             T *= (1.0 - rho)
                             diffuse = rho
@@ -909,7 +910,9 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                             wi_y = -dy
                             wi_z = -dz
                             wout = 0.0
+                            wdelta = 0.0
                             w_first = 0.0
+                            first_delta = False
                             for q in range(nsplit):
                                 v0, v1 = uniform2(seed, i, ev, path * 64 + 1 + 2 * q)
                                 v2, _v = uniform2(seed, i, ev, path * 64 + 2 + 2 * q)
@@ -917,11 +920,14 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                                                       v0, v1, v2)
                                 cw = w * sw * tot / diffuse / nsplit
                                 wout += cw
+                                if sdelta:
+                                    wdelta += cw
                                 if q == 0:
                                     dx = sx
                                     dy = sy
                                     dz = sz
                                     w_first = cw
+                                    first_delta = sdelta
                                 elif cw > 0.0 and sp < SMAX:
                                     if F_HISTORY and ev - 1 < H:
                                         hist[ev - 1] = o * 8 + EV_S
@@ -931,13 +937,18 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                     npath += 1
                                 elif cw > 0.0:
                                     led[c, r_lost, C_ABS, line] += cw   # no room on the stack: counted as lost
-                            led[c, o, C_SCA, line] += wout
+                            led[c, o, C_SCA, line] += wout - wdelta
+                            led[c, o, C_TRA, line] += wdelta     # a slab's unscattered beam
                             led[c, o, C_ABS, line] += w - wout
                             w = w_first
                             w0 = w0 / nsplit
-                            flags |= FL_SCATTERED
-                            evkind = EV_S
-                            excl = sc_tgt
+                            if first_delta:
+                                flags |= FL_TRANSMITTED
+                                evkind = EV_T
+                            else:
+                                flags |= FL_SCATTERED
+                                evkind = EV_S
+                                excl = sc_tgt
                         if w > 0.0:
                             m = math.sqrt(dx * dx + dy * dy + dz * dz)
                             dx /= m

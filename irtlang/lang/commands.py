@@ -77,6 +77,21 @@ def _stop(it, b, st):
     raise StopScript()
 
 
+@command("ERROR", Form((Rest("items"),)), "control",
+         "report an error here with the message ({expr} interpolated) and end the script")
+def _error_cmd(it, b, st):
+    from .diagnostics import Diagnostic
+    from .interp import StopScript
+
+    parts = []
+    for item in b["items"]:
+        v = evaluate(item, it.env)
+        parts.append(v if isinstance(v, str) else format_value(v, it.env) if v.dim in (None, NONE)
+                     else v.describe(it.state.units))
+    it.diags.add(Diagnostic(b.span, " ".join(parts) or "ERROR"))
+    raise StopScript()
+
+
 # ==================================================================== 3. system
 @command("SYSTEM", Form((Choice("what", ("NEW",)),)), "system", "SYSTEM NEW forgets every definition")
 def _system(it, b, st):
@@ -608,6 +623,16 @@ def _check_scene(it, b) -> None:
                     if n is not None and n > len(sc.models):
                         raise error(sc.span, f"map {m.name} has {n} classes but MODELS names {len(sc.models)}",
                                     "name one model per class index 0 .. n-1")
+        # a transmitting model on an opaque object (SCATTER checks this only against an INTERFACE given
+        # before it; here: INTERFACE after SCATTER, no INTERFACE (absorbing), and SCATTER MAP ... MODELS)
+        opaque = obj.interface is None or obj.interface.kind in ("reflect", "absorb")
+        for sc in obj.scatter if opaque else ():
+            for mname in ((sc.model,) if sc.model is not None else sc.models):
+                model = s.models[mname]
+                if BSDFS[model.kind].transmits(model.params):
+                    kind = obj.interface.kind.upper() if obj.interface is not None else "ABSORB, the default"
+                    raise error(sc.span, f"model {model.name} transmits, but object {obj.name} is opaque "
+                                f"(INTERFACE {kind})", "give the object INTERFACE TRANSMIT or a model that only reflects")
         itf = obj.interface
         if itf is not None and itf.kind == "coating" and s.coatings[itf.coating].kind == "fresnel":
             pass

@@ -119,7 +119,8 @@ def test_rossli_white_sky_vol_scipy_quad():
             sv = math.sqrt(1 - mv * mv)
             return integrate.quad(lambda ph: RL.kernels(ms, mv, ms * mv + ss * sv * math.cos(ph))[0], 0, math.pi,
                                   epsabs=1e-11, epsrel=1e-10)[0] * mv
-        return 2 / math.pi * sum(integrate.quad(ring, a, b, epsabs=1e-10, epsrel=1e-10)[0] for a, b in ((0, ms), (ms, 1)))
+        parts = (integrate.quad(ring, a, b, epsabs=1e-10, epsrel=1e-10)[0] for a, b in ((0, ms), (ms, 1)))
+        return 2 / math.pi * sum(parts)
     v = integrate.quad(lambda ms: 2 * ms * bsa(ms), 0, 1, epsabs=1e-9, epsrel=1e-9)[0]
     assert v == pytest.approx(0.18918640, abs=2e-8)
 
@@ -235,7 +236,8 @@ def test_rayleigh_rho_T():
     rho = math.pi * mod.eval(P, 0, *wi, *wo, *N_UP)
     assert abs(rho - 0.063148) <= 5e-7
     ms, mv = math.cos(math.radians(30)), math.cos(math.radians(60))
-    exact = 0.25 * 0.75 * (1 + math.cos(math.radians(30)) ** 2) / (mv - ms) * (math.exp(-0.0971 / mv) - math.exp(-0.0971 / ms))
+    c = math.cos(math.radians(30))
+    exact = 0.25 * 0.75 * (1 + c * c) / (mv - ms) * (math.exp(-0.0971 / mv) - math.exp(-0.0971 / ms))
     assert rho == pytest.approx(exact, rel=1e-12)
     # light at 60 deg from below, viewer at 30 deg above: n is on the light's side (-z)
     wi2, wo2 = (wo[0], wo[1], wo[2]), (wi[0], wi[1], wi[2])
@@ -284,7 +286,8 @@ def test_hg_effective_phase_pfeiffer_chapman_weights():
         assert norm == pytest.approx(1.0, abs=1e-10)
         assert mean == pytest.approx(float(np.sum(weights * 0.8 ** np.arange(1, 4))), abs=1e-10)
         c = 0.37
-        want = sum(wn * (1 - g ** 2) / (1 + g ** 2 - 2 * g * c) ** 1.5 for wn, g in zip(weights, 0.8 ** np.arange(1, 4)))
+        gs = 0.8 ** np.arange(1, 4)
+        want = sum(wn * (1 - g ** 2) / (1 + g ** 2 - 2 * g * c) ** 1.5 for wn, g in zip(weights, gs))
         assert HG.phase(P, k, c) == pytest.approx(want, rel=1e-13)
 
 

@@ -386,6 +386,16 @@ def test_a_long_chain_of_macros_is_an_error_not_a_crash():
     assert [(d.span.line, d.message) for d in diags] == [(3 * 63 + 2, "MACRO calls nested more than 64 deep")]  # the CALL in m63
 
 
+def test_a_tiny_blackbody_temperature_warns_nothing():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        it = Interpreter(check_only=True)
+        it.run_text("SPECTRUM star BLACKBODY 1e-320 K\n")
+    assert not it.diags
+    (v,) = it.state.spectra["STAR"].on_lines
+    assert 0.0 <= v < 1e-290          # finite and negligible (the exponent is clamped at 700)
+
+
 def test_repeated_wavelengths_are_an_error_not_nan():
     """Two equal lines gave a zero-width band: the solar spectrum rebinned to NaN (a RuntimeWarning)."""
     with warnings.catch_warnings():

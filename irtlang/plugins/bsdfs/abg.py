@@ -35,7 +35,7 @@ from scipy import integrate
 from ...lang.diagnostics import error
 from ...lang.spec import Clause, Form, PL, nonneg, positive
 from ...kernels.sampling import onb
-from ._common import MU_MIN, table_interp, table_mu_nodes
+from ._common import table_interp, table_mu_nodes
 
 KIND = "ABG"
 FORM = Form((), (Clause("A", (PL("a", check=nonneg),), required=True, doc="scale (1/sr)"),

@@ -39,7 +39,7 @@ import numpy as np
 from ...lang.diagnostics import error
 from ...lang.spec import Form, Path
 from ...kernels.sampling import cosine_hemisphere, onb
-from ._common import INV_PI, MU_MIN
+from ._common import INV_PI
 
 KIND = "TABLE"
 FORM = Form((Path("file"),))
