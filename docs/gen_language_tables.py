@@ -28,6 +28,7 @@ DOC = Path(__file__).resolve().parent / "language.md"
 # kinds whose module has no EXAMPLE that runs by itself (it needs an input file): the example the docs show.
 # Input files are resolved next to the script; docs/examples/ holds the files these examples name.
 FALLBACK_EXAMPLES = {
+    "TABLE": "MODEL white_table TABLE 'brdf.csv'",
     "MESH": "SURFACE\n  MESH 'baffle.stl' SCALE 1      !! docs/examples/baffle.stl, a 20 x 20 x 40 box\nOBJECT baffle",
 }
 
