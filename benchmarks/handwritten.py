@@ -1,4 +1,4 @@
-"""A hand-written Numba kernel of the Cassegrain in examples_scripts/cassegrain.inr: the baseline the
+"""A hand-written Numba kernel of the Cassegrain in benchmarks/cassegrain_plain.inr: the baseline the
 script-driven tracer is measured against (same geometry, same source sampling, same Philox numbers, same
 detector tally), written the way one would write a one-off sequential trace: primary, secondary, focal plane
 in fixed order, no dispatch, no ledger."""

@@ -23,7 +23,7 @@ HISTORY_CAP = 16
 class TraceResult:
     packed: Packed
     ledger: np.ndarray          # (rows, 5, L): incident, reflected, transmitted, scattered, absorbed
-    ledger_sq: np.ndarray       # (rows, L): sum of squared incident fluxes
+    ledger_sq: np.ndarray       # (rows, L): sum over source rays of (incident flux that ray brought)^2
     images: dict                # detector name -> (sum (L, ny, nx), sum2)
     records: dict | None        # per-ray final states (see docs/rayfile.md)
     n_traced: int               # source rays traced

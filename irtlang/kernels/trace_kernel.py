@@ -605,12 +605,19 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
         stack = np.empty((SMAX, SW + H))
         hist = np.full(max(H, 1), -1.0)
         Pm = mod_P[0]
+        # per source ray: incident flux per object, so that inc_sq and the images' squares sum the squares of
+        # whole source-ray contributions (split paths, rays sent toward a target and repeated hits of one
+        # source ray are correlated: squaring each incidence alone underestimates the standard error)
+        acc = np.zeros(nrows)
+        touched = np.empty(nrows, np.int64)
         for ii in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             i = first + ii
             s, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, sx0, sy0 = _gen(
                 i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random,
                 src_toward, src_pts, src_pts_off, o_bc, o_br)
             led[c, r_emit, C_INC, line] += w
+            nt = 0
+            dep0 = ndep
             for h in range(H):
                 hist[h] = -1.0
             _push(stack, 0, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w, 0.0, -1.0, 0.0, 0.0, 0.0, -1.0, 0.0, sx0,
@@ -761,7 +768,10 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                         w = 0.0
                         break
                     led[c, o, C_INC, line] += w
-                    inc_sq[c, o, line] += w * w
+                    if acc[o] == 0.0:
+                        touched[nt] = o
+                        nt += 1
+                    acc[o] += w
                     hx = phx + plx
                     hy = phy + ply
                     hz = phz + plz
@@ -987,6 +997,23 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                         for h in range(H):
                             rec_hist[c, nrec, h] = int(hist[h])
                     nrec += 1
+            for q in range(nt):
+                inc_sq[c, touched[q], line] += acc[touched[q]] * acc[touched[q]]
+                acc[touched[q]] = 0.0
+            if ndep <= cap:
+                # one deposit per pixel and source ray (reduce_batch squares each deposit)
+                kk = dep0
+                for a in range(dep0, ndep):
+                    b_ = dep0
+                    while b_ < kk and dep_idx[c, b_] != dep_idx[c, a]:
+                        b_ += 1
+                    if b_ < kk:
+                        dep_w[c, b_] += dep_w[c, a]
+                    else:
+                        dep_idx[c, kk] = dep_idx[c, a]
+                        dep_w[c, kk] = dep_w[c, a]
+                        kk += 1
+                ndep = kk
         dep_n[c] = ndep if ndep <= cap else -1
         rec_n[c] = nrec if nrec <= rcap else -1
 

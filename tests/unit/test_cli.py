@@ -11,13 +11,11 @@ import json
 import subprocess
 import sys
 import textwrap
-from pathlib import Path
 
 import pytest
 
 import irtlang
 from irtlang import cli
-from irtlang.lang.diagnostics import Span
 
 GOOD = "UNITS MM\nd = 1200\nSEED 42\nPRINT 'spacing = {d} mm'\nWAVELENGTHS 450 550 650 NM\nCOATING al REFLECT 0.91\n"
 BAD = "x = y + 1\nSURFACE\n  PLANE Z 5 deg\nOBJECT a\n"

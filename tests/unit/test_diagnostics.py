@@ -121,6 +121,11 @@ CASES = [
     ("index-negative", "MEDIUM glass INDEX -1.5\n", 1, 20, "MEDIUM INDEX: index must be > 0, got -1.5", None),
     ("detector-0-pixels", "SURFACE\n  PLANE Z 0 RECT 1 1\nOBJECT fpa\n  DETECTOR PIXELS 0 10\n", 4, 19,
      "a detector needs at least 1 pixel, got 0", None),
+    ("detector-qe-1.5", "SURFACE\n  PLANE Z 0 RECT 1 1\nOBJECT fpa\n  DETECTOR PIXELS 10 10 QE 1.5\n", 4, 28,
+     "DETECTOR QE: qe must be in [0, 1], got 1.5", None),
+    ("detector-qe-count", "WAVELENGTHS 450 550 NM\nSURFACE\n  PLANE Z 0 RECT 1 1\nOBJECT fpa\n"
+     "  DETECTOR PIXELS 10 10 QE 0.5 0.6 0.7\n", 5, 28, "DETECTOR QE: 3 values for qe, but WAVELENGTHS has 2 lines",
+     "give one value for all lines, or one per line"),
     ("rays-0", "EMITTING DISK Z 0 5 RAYS 0\n", 1, 26, "EMITTING DISK RAYS: rays must be > 0, got 0", None),
     ("seed-negative", "SEED -1\n", 1, 6, "SEED: seed must be >= 0, got -1", None),
     ("level-fraction", "LEVEL 2.5\n", 1, 7, "LEVEL: level must be a whole number, got 2.5", None),

@@ -1,0 +1,208 @@
+"""Runs that outgrow one machine: trace batches on a Dask cluster, with bitwise the same answer.
+
+``irt run FILE --scheduler tcp://host:8786`` (or ``--workers N`` for a cluster of N local processes) hands
+each TRACE's ray batches to Dask workers instead of tracing them here.  Nothing else changes:
+
+* The packed scene (irtlang.compile.pack.Packed, a dataclass of numpy arrays) is scattered to the workers
+  once per trace; a work unit is (scene future, scene key, trace options, first ray id, count), a few hundred
+  bytes.  Each worker process builds a TraceContext once per scene key (the specialized kernel comes from
+  the Numba cache in $NUMBA_CACHE_DIR) and keeps the last few.
+* A worker returns the batch's raw chunk tallies (BatchTally); the client reduces them in ray-id order
+  (irtlang.tracer.Accumulator).  Ray paths depend only on (seed, ray id, event) (counter-based Philox) and the
+  reduction order is fixed, so the ledger, images and records are bitwise those of an in-process run, for
+  any number of workers, any placement of units and any recomputation.
+* At most ``per_worker`` units per worker are in flight; tallies are yielded in unit order as they arrive, so
+  the client's memory stays flat and the progress line counts rays across all workers.
+* A worker that dies takes its running and finished-but-unread units with it; the scheduler recomputes them
+  elsewhere (the scene is broadcast to every worker, and scattered again if no copy survived).
+
+Dask is an optional extra (``pip install "irtlang[cluster]"``); this module imports it only when used.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import pickle
+import threading
+import time
+import uuid
+import weakref
+from collections import OrderedDict, deque
+
+DEFAULT_TIMEOUT = 10.0
+_CONTEXTS_KEPT = 3
+
+
+class ClusterError(Exception):
+    """A cluster problem the user can act on (unreachable scheduler, no workers, a unit that keeps failing)."""
+
+
+def _need_distributed():
+    try:
+        import distributed
+    except ImportError:
+        raise ClusterError('--scheduler and --workers need Dask distributed: pip install "irtlang[cluster]" '
+                           '(or pip install "dask[distributed]")') from None
+    return distributed
+
+
+def default_threads(workers: int) -> int:
+    """Numba threads per worker for `workers` local worker processes sharing this machine's cores."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not on Linux
+        cores = os.cpu_count() or 1
+    return max(1, cores // max(1, workers))
+
+
+def connect(scheduler: str | None = None, workers: int | None = None, timeout: float = DEFAULT_TIMEOUT,
+            threads: int | None = None):
+    """A Dask client: to the scheduler at `scheduler`, or to a new local cluster of `workers` processes.
+
+    A local cluster listens on the loopback only; each worker has one Dask thread and `threads` Numba threads
+    (default: this machine's cores shared out).  ``client.close()`` also shuts a local cluster down.
+    Raises ClusterError if the scheduler cannot be reached, or has no worker, within `timeout` seconds.
+    """
+    distributed = _need_distributed()
+    if scheduler:
+        try:
+            client = distributed.Client(scheduler, timeout=timeout, set_as_default=False)
+        except (OSError, TimeoutError, ValueError) as e:
+            detail = "" if isinstance(e, (OSError, TimeoutError)) else f" ({e})"
+            raise ClusterError(f"cannot reach the Dask scheduler at {scheduler} within {timeout:g} s{detail}") \
+                from None
+        try:
+            client.wait_for_workers(1, timeout=timeout)
+        except (OSError, TimeoutError):
+            client.close()
+            raise ClusterError(f"the Dask scheduler at {scheduler} has no workers (waited {timeout:g} s); "
+                               f"start some with `dask worker {scheduler}`") from None
+        return client
+    n = int(workers or 1)
+    if n < 1:
+        raise ClusterError("--workers needs at least 1 worker")
+    nth = threads or default_threads(n)
+    import logging
+
+    try:
+        client = distributed.Client(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                    dashboard_address=None, silence_logs=logging.ERROR, set_as_default=False,
+                                    env={"NUMBA_NUM_THREADS": str(nth)}, timeout=max(timeout, 60.0))
+        client.wait_for_workers(n, timeout=max(timeout, 60.0))
+    except (OSError, TimeoutError) as e:
+        raise ClusterError(f"could not start a local Dask cluster of {n} workers: {e}") from None
+    return client
+
+
+def scene_key(pk) -> str:
+    """A content hash of a packed scene (workers cache their TraceContext under it)."""
+    return hashlib.sha256(pickle.dumps(pk, protocol=pickle.HIGHEST_PROTOCOL)).hexdigest()[:24]
+
+
+# ------------------------------------------------------------------------------------------------ worker side
+_contexts: OrderedDict = OrderedDict()
+_lock = threading.Lock()   # one kernel call at a time per process (it already uses every Numba thread)
+
+
+def _worker_context(pk, key: str, opts: tuple):
+    from .tracer import TraceContext
+
+    ck = (key, opts)
+    ctx = _contexts.get(ck)
+    if ctx is None:
+        seed, level, halt, records, history = opts
+        ctx = TraceContext(pk, seed=seed, level=level, halt=halt, records=records, history=history)
+        _contexts[ck] = ctx
+        while len(_contexts) > _CONTEXTS_KEPT:
+            _contexts.popitem(last=False)
+    else:
+        _contexts.move_to_end(ck)
+    return ctx
+
+
+def trace_unit(pk, key: str, opts: tuple, first: int, n: int):
+    """One work unit, run on a worker: trace ray ids first .. first + n - 1 and return their raw tallies."""
+    with _lock:
+        return _worker_context(pk, key, opts).run_batch(first, n)
+
+
+# ------------------------------------------------------------------------------------------------ client side
+class DaskRunner:
+    """``run_trace(..., runner=DaskRunner(client))``: trace the batches on the client's cluster.
+
+    Yields the BatchTally of each unit in unit order, keeping at most `per_worker` units per worker in flight.
+    """
+
+    def __init__(self, client, *, per_worker: int = 3, retries: int = 3):
+        self.client = client
+        self.per_worker = max(1, int(per_worker))
+        self.retries = retries
+        self._scene = None   # (weakref to the TraceContext, scene key, scene future)
+        self._nw = (0.0, 1)
+
+    # the scene goes to the workers once per trace (a second pass of TRACE UNTIL reuses it)
+    def _scatter(self, ctx, again: bool = False):
+        if self._scene is not None and self._scene[0]() is ctx and not again:
+            return self._scene[1], self._scene[2]
+        key = self._scene[1] if self._scene is not None and self._scene[0]() is ctx else scene_key(ctx.pk)
+        self._scene = None   # release the previous scene's future (its copies leave the workers)
+        fut = self.client.scatter(ctx.pk, broadcast=True, hash=False)
+        self._scene = (weakref.ref(ctx), key, fut)
+        return key, fut
+
+    def _workers(self) -> int:
+        t, n = self._nw
+        now = time.monotonic()
+        if now - t > 1.0:
+            try:
+                n = max(1, len(self.client.nthreads()))
+            except Exception:  # noqa: BLE001 - a busy scheduler: keep the last count
+                pass
+            self._nw = (now, n)
+        return n
+
+    def __call__(self, ctx, units):
+        return self._run(ctx, list(units))
+
+    def _run(self, ctx, units):
+        distributed = _need_distributed()
+        client = self.client
+        opts = (int(ctx.seed), int(ctx.level), float(ctx.halt), bool(ctx.records), bool(ctx.history))
+        key, scene = self._scatter(ctx)
+        tag = uuid.uuid4().hex[:8]
+        pending: deque = deque()   # (unit index, future), in unit order
+        nxt = 0
+
+        def submit(i):
+            f, n = units[i]
+            return client.submit(trace_unit, scene, key, opts, f, n, pure=False, retries=0,
+                                 key=f"irt-batch-{f}-{n}-{tag}")
+
+        try:
+            while pending or nxt < len(units):
+                limit = self.per_worker * self._workers()
+                while nxt < len(units) and len(pending) < limit:
+                    pending.append((nxt, submit(nxt)))
+                    nxt += 1
+                i, fut = pending.popleft()
+                tries = 0
+                while True:
+                    try:
+                        t = fut.result()
+                        break
+                    except (distributed.client.FutureCancelledError, distributed.scheduler.KilledWorker,
+                            OSError, TimeoutError) as e:
+                        # the scene lost every copy (a one-worker cluster whose worker died) or the unit kept
+                        # killing its workers: scatter the scene again and resubmit what is in flight
+                        tries += 1
+                        if tries > self.retries or client.status not in ("running", "connecting"):
+                            raise ClusterError(f"trace batch of rays {units[i][0]}..{sum(units[i]) - 1} failed "
+                                               f"on the Dask cluster: {type(e).__name__}: {e}") from None
+                        key, scene = self._scatter(ctx, again=True)
+                        fut = submit(i)
+                        pending = deque((j, submit(j)) for j, _ in pending)
+                del fut
+                yield t
+        finally:
+            for _, f in pending:
+                f.cancel()
