@@ -33,6 +33,11 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="run a script")
     r.add_argument("file")
     r.add_argument("--out", help="output folder (default irt-out/<script name>/)")
+    g = r.add_mutually_exclusive_group()   # docs/cluster.md
+    g.add_argument("--scheduler", metavar="ADDRESS", help="trace on the Dask cluster of this scheduler (tcp://host:8786)")
+    g.add_argument("--workers", type=int, metavar="N", help="trace on a local Dask cluster of N worker processes")
+    r.add_argument("--connect-timeout", type=float, default=5.0, metavar="S",
+                   help="seconds to wait for the Dask scheduler and a worker (default 5)")
     r.add_argument("--debug", action="store_true", default=argparse.SUPPRESS)
 
     c = sub.add_parser("check", help="parse and validate scripts only")
@@ -125,6 +130,34 @@ def cmd_check(args) -> int:
 
 
 def cmd_run(args) -> int:
+    scheduler, workers = getattr(args, "scheduler", None), getattr(args, "workers", None)
+    if not scheduler and workers is None:
+        return _run_script(args)
+    from .cluster import DEFAULT_TIMEOUT, ClusterError, DaskRunner, connect
+    from .lang.diagnostics import IrtError
+
+    if workers is not None and workers < 1:
+        print("irt: --workers needs at least 1 worker", file=sys.stderr)
+        return EXIT_INPUT
+    try:
+        _load_check(args.file)   # report input errors before starting or reaching a cluster
+    except IrtError:
+        return _run_script(args)
+    try:
+        client = connect(scheduler, workers, timeout=getattr(args, "connect_timeout", DEFAULT_TIMEOUT))
+    except ClusterError as e:
+        print(f"irt: {e}", file=sys.stderr)
+        return EXIT_RUNTIME
+    try:
+        return _run_script(args, DaskRunner(client))
+    except ClusterError as e:
+        print(f"irt: {e}", file=sys.stderr)
+        return EXIT_RUNTIME
+    finally:
+        client.close()
+
+
+def _run_script(args, runner=None) -> int:
     from .engine import Engine, MissingCapability, RuntimeFailure
     from .io.manifest import RunFolder
     from .lang.diagnostics import Diagnostic, IrtError
@@ -142,7 +175,7 @@ def cmd_run(args) -> int:
 
     folder = RunFolder(out, str(script), checked.script_hash, checked.state.seed)
     records, history = needs_from_steps(checked.steps)
-    it = Interpreter(engine=Engine(folder, records=records, history=history))
+    it = Interpreter(engine=Engine(folder, records=records, history=history, runner=runner))
     status = "complete"
     code = EXIT_OK
     try:
@@ -163,7 +196,10 @@ def cmd_run(args) -> int:
         status, code = "interrupted", EXIT_INTERRUPTED
         print("irt: interrupted; keeping what was written", file=sys.stderr)
     except Exception as e:  # keep what was written, then report the internal error
-        folder.write_manifest(f"internal error: {type(e).__name__}: {e}")
+        if type(e).__name__ == "ClusterError":   # irtlang.cluster: the cluster failed, not irtlang
+            folder.write_manifest(f"failed: {e}")
+        else:
+            folder.write_manifest(f"internal error: {type(e).__name__}: {e}")
         raise
     man = folder.write_manifest(status)
     print(f"irt: outputs in {folder.root}/ ({len(folder.files)} file{'s' if len(folder.files) != 1 else ''}; "

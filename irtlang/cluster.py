@@ -20,6 +20,8 @@ Dask is an optional extra (``pip install "irtlang[cluster]"``); this module impo
 """
 from __future__ import annotations
 
+import asyncio
+import functools
 import hashlib
 import os
 import pickle
@@ -28,8 +30,9 @@ import time
 import uuid
 import weakref
 from collections import OrderedDict, deque
+from concurrent.futures import CancelledError
 
-DEFAULT_TIMEOUT = 10.0
+DEFAULT_TIMEOUT = 5.0
 _CONTEXTS_KEPT = 3
 
 
@@ -66,6 +69,13 @@ def connect(scheduler: str | None = None, workers: int | None = None, timeout: f
     distributed = _need_distributed()
     if scheduler:
         try:
+            from distributed.comm import parse_address
+            from distributed.comm.registry import get_backend
+
+            get_backend(parse_address(scheduler)[0])
+        except (ValueError, TypeError) as e:
+            raise ClusterError(f"{scheduler} is not a Dask scheduler address ({e})") from None
+        try:
             client = distributed.Client(scheduler, timeout=timeout, set_as_default=False)
         except (OSError, TimeoutError, ValueError) as e:
             detail = "" if isinstance(e, (OSError, TimeoutError)) else f" ({e})"
@@ -86,7 +96,7 @@ def connect(scheduler: str | None = None, workers: int | None = None, timeout: f
 
     try:
         client = distributed.Client(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                    dashboard_address=None, silence_logs=logging.ERROR, set_as_default=False,
+                                    dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR, set_as_default=False,
                                     env={"NUMBA_NUM_THREADS": str(nth)}, timeout=max(timeout, 60.0))
         client.wait_for_workers(n, timeout=max(timeout, 60.0))
     except (OSError, TimeoutError) as e:
@@ -120,10 +130,39 @@ def _worker_context(pk, key: str, opts: tuple):
     return ctx
 
 
-def trace_unit(pk, key: str, opts: tuple, first: int, n: int):
+_units_traced = 0
+
+
+class KernelMismatch(Exception):
+    """A worker's irtlang kernels differ from the client's (another version): its rays would not be the same."""
+
+
+@functools.lru_cache(maxsize=None)
+def kernel_version() -> str:
+    """irtlang's version and the hash of every kernel source a trace depends on."""
+    from ._version import __version__
+    from .compile.specialize import _sources_hash
+
+    return f"{__version__}+{_sources_hash()}"
+
+
+def trace_unit(pk, key: str, opts: tuple, first: int, n: int, version: str | None = None):
     """One work unit, run on a worker: trace ray ids first .. first + n - 1 and return their raw tallies."""
+    global _units_traced
+    if version is not None and version != kernel_version():
+        import socket
+
+        raise KernelMismatch(f"the worker on {socket.gethostname()} has irtlang {kernel_version()}, the client "
+                             f"{version}: install the same irtlang on every worker")
     with _lock:
-        return _worker_context(pk, key, opts).run_batch(first, n)
+        t = _worker_context(pk, key, opts).run_batch(first, n)
+        _units_traced += 1
+    return t
+
+
+def worker_units() -> int:
+    """Work units this worker process has traced (``client.run(worker_units)`` shows the spread)."""
+    return _units_traced
 
 
 # ------------------------------------------------------------------------------------------------ client side
@@ -133,12 +172,14 @@ class DaskRunner:
     Yields the BatchTally of each unit in unit order, keeping at most `per_worker` units per worker in flight.
     """
 
-    def __init__(self, client, *, per_worker: int = 3, retries: int = 3):
+    def __init__(self, client, *, per_worker: int = 3, retries: int = 3, timeout: float = 60.0):
         self.client = client
+        self.timeout = timeout   # seconds to wait for a worker to send the scene to
         self.per_worker = max(1, int(per_worker))
         self.retries = retries
         self._scene = None   # (weakref to the TraceContext, scene key, scene future)
         self._nw = (0.0, 1)
+        self.peak_in_flight = 0   # the most units in flight at once (bounded by per_worker x workers)
 
     # the scene goes to the workers once per trace (a second pass of TRACE UNTIL reuses it)
     def _scatter(self, ctx, again: bool = False):
@@ -146,7 +187,18 @@ class DaskRunner:
             return self._scene[1], self._scene[2]
         key = self._scene[1] if self._scene is not None and self._scene[0]() is ctx else scene_key(ctx.pk)
         self._scene = None   # release the previous scene's future (its copies leave the workers)
-        fut = self.client.scatter(ctx.pk, broadcast=True, hash=False)
+        for attempt in range(10):
+            try:
+                # a worker that died may still be starting again: broadcasting to no worker is an error
+                self.client.wait_for_workers(1, timeout=self.timeout)
+                fut = self.client.scatter(ctx.pk, broadcast=True, hash=False)
+                break
+            except (OSError, TimeoutError) as e:
+                raise ClusterError(f"no Dask worker to send the scene to within {self.timeout:g} s ({e})") from None
+            except ValueError:   # the last worker left between the two calls
+                if attempt == 9:
+                    raise
+                time.sleep(0.2)
         self._scene = (weakref.ref(ctx), key, fut)
         return key, fut
 
@@ -169,14 +221,14 @@ class DaskRunner:
         client = self.client
         opts = (int(ctx.seed), int(ctx.level), float(ctx.halt), bool(ctx.records), bool(ctx.history))
         key, scene = self._scatter(ctx)
-        tag = uuid.uuid4().hex[:8]
+        version = kernel_version()
         pending: deque = deque()   # (unit index, future), in unit order
         nxt = 0
 
         def submit(i):
             f, n = units[i]
-            return client.submit(trace_unit, scene, key, opts, f, n, pure=False, retries=0,
-                                 key=f"irt-batch-{f}-{n}-{tag}")
+            return client.submit(trace_unit, scene, key, opts, f, n, version, pure=False,
+                                 key=f"irt-batch-{f}-{n}-{uuid.uuid4().hex[:12]}")
 
         try:
             while pending or nxt < len(units):
@@ -184,14 +236,17 @@ class DaskRunner:
                 while nxt < len(units) and len(pending) < limit:
                     pending.append((nxt, submit(nxt)))
                     nxt += 1
+                self.peak_in_flight = max(self.peak_in_flight, len(pending))
                 i, fut = pending.popleft()
                 tries = 0
                 while True:
                     try:
                         t = fut.result()
                         break
-                    except (distributed.client.FutureCancelledError, distributed.scheduler.KilledWorker,
-                            OSError, TimeoutError) as e:
+                    except KernelMismatch as e:
+                        raise ClusterError(str(e)) from None
+                    except (CancelledError, asyncio.CancelledError, distributed.KilledWorker, OSError,
+                            TimeoutError) as e:
                         # the scene lost every copy (a one-worker cluster whose worker died) or the unit kept
                         # killing its workers: scatter the scene again and resubmit what is in flight
                         tries += 1

@@ -40,7 +40,7 @@ class RuntimeFailure(Exception):
         super().__init__(message)
 
 
-RECORD_STEPS = {"SPOTS", "FOCUS", "SAVE_RAYS", "EXPORT"}
+RECORD_STEPS = {"SPOTS", "FOCUS", "SAVE_RAYS", "EXPORT", "PSF"}
 COLS = ("incident_W", "reflected_W", "transmitted_W", "scattered_W", "absorbed_W")
 
 
@@ -59,8 +59,9 @@ def needs_from_steps(steps) -> tuple[bool, bool]:
 
 class Engine:
     def __init__(self, folder: RunFolder, *, records: bool = True, history: bool = True, progress=None,
-                 out=None):
+                 out=None, runner=None):
         self.folder = folder
+        self.runner = runner   # where TRACE runs its batches (irtlang.cluster.DaskRunner); None: in-process
         self.need_records, self.need_history = records, history
         self.progress = progress
         self.out = out or (lambda s: print(s, flush=True))
@@ -119,7 +120,7 @@ class Engine:
         try:
             res = run_trace(sc, seed=sc.seed, level=p["level"], halt=p["halt"], until_error=p["until_error"],
                             until_target=p["until_target"], records=self.need_records, history=self.need_history,
-                            progress=self.progress)
+                            progress=self.progress, runner=self.runner)
         except MissingFeature as e:
             raise MissingCapability(e.span, e.what, e.capability) from None
         self.result = res
@@ -160,6 +161,15 @@ class Engine:
             m &= _eval_pred(self.predicate, r, names, self.result.packed.lines_nm)
         return m
 
+    def _rel_positions(self, m):
+        """(ref, p - ref) for the selected records, with the records' low parts (position_lo) when they have them:
+        spots on a focal plane 0.18 AU from the origin keep their sub-micrometre detail."""
+        r = self.result.records
+        p = r["position"][m]
+        ref = p[0].copy() if len(p) else np.zeros(3)
+        lo = r.get("position_lo")
+        return ref, (p - ref) + (lo[m] if lo is not None else 0.0)
+
     # ------------------------------------------------------------------ analysis
     def do_stats(self, step, interp):
         what = step.params["what"] or "LEDGER"
@@ -194,9 +204,11 @@ class Engine:
             self.out(f"STATS {what}: no rays selected")
             return
         tot = w.sum()
-        vec = r["position"][m] / f if what == "POSITION" else r["direction"][m]
+        ref, vec = self._rel_positions(m) if what == "POSITION" else (np.zeros(3), r["direction"][m])
+        vec = vec / f if what == "POSITION" else vec
         mean = (vec * w[:, None]).sum(0) / tot if tot else vec.mean(0)
         sd = np.sqrt(((vec - mean) ** 2 * w[:, None]).sum(0) / tot) if tot else np.zeros(3)
+        mean = mean + ref / (f if what == "POSITION" else 1.0)
         sem = sd / math.sqrt(max(n - 1, 1))
         lab = f" ({unit})" if what == "POSITION" else ""
         self.out(f"STATS {what}: {n:,} rays, flux {tot:.6g} W +- {_se(w, self.result.n_traced):.2g}\n"
@@ -231,9 +243,14 @@ class Engine:
         img, _, _ = np.histogram2d(vec[:, ax[1]], vec[:, ax[0]], bins=(ny, nx), range=((b0, b1), (a0, a1)), weights=w)
         inside = ((vec[:, ax[0]] >= a0) & (vec[:, ax[0]] <= a1) & (vec[:, ax[1]] >= b0) & (vec[:, ax[1]] <= b1))
         x, y = vec[:, ax[0]], vec[:, ax[1]]
+        ox = oy = 0.0
+        if step.params["what"] == "POSITION":
+            ref, rel = self._rel_positions(m)
+            x, y, ox, oy = rel[:, ax[0]], rel[:, ax[1]], ref[ax[0]], ref[ax[1]]
         tot = w.sum()
         cx, cy = (x * w).sum() / tot, (y * w).sum() / tot
         rms = math.sqrt(((x - cx) ** 2 + (y - cy) ** 2) @ w / tot)
+        cx, cy = ox + cx, oy + cy
         scale = f if step.params["what"] == "POSITION" else 1.0
         lab = unit if step.params["what"] == "POSITION" else "(direction cosine)"
         self.out(f"SPOTS {step.params['what']}: {int(m.sum()):,} rays, {tot:.6g} W +- {_se(w, self.result.n_traced):.2g}"
@@ -247,7 +264,7 @@ class Engine:
         r = self.result.records
         if m.sum() < 2:
             raise RuntimeFailure(step.span, "FOCUS needs at least two selected rays")
-        p, d, w = r["position"][m], r["direction"][m], r["flux"][m]
+        p, d, w = self._rel_positions(m)[1], r["direction"][m], r["flux"][m]   # only differences of p matter
         axis = (d * w[:, None]).sum(0)
         axis /= np.linalg.norm(axis)
         a = int(np.argmax(np.abs(axis)))
@@ -303,10 +320,17 @@ class Engine:
             img, img2 = self.result.images[obj.name]
             d = self.result.packed.detector_names.index(obj.name)
             x0, x1, y0, y1 = self.result.packed.d_ext[d] / f
+            note = ""
+            if step.params.get("diffraction"):   # convolved with the last PSF's kernel (irtlang/optics/psf_step.py)
+                from .optics.psf_step import diffraction_image
+                img, img2, kept = diffraction_image(self, step, obj.name, img, img2, (x1 - x0) * f / img.shape[2])
+                note = f", convolved with the diffraction kernel ({kept:.4f} of its energy)"
             self._write_image(step.params["file"], img, "image", extent=(x0, x1, y0, y1), sum2=img2)
             self.out(f"EXPORT {obj.name}: {img.shape[2]}x{img.shape[1]} pixels x {img.shape[0]} lines, "
-                     f"{img.sum():.6g} W -> {step.params['file']}")
+                     f"{img.sum():.6g} W{note} -> {step.params['file']}")
             return
+        if step.params.get("diffraction"):
+            raise RuntimeFailure(step.span, f"EXPORT {obj.name} DIFFRACTION needs an object with a DETECTOR")
         # no DETECTOR: the WINDOW / PIXELS grid of the selected rays that ended on the object
         m = self._selected(step, "EXPORT", obj_filter=key)
         r = self.result.records
@@ -325,6 +349,10 @@ class Engine:
             img2[k] = np.histogram2d(vec[mk, ax[1]], vec[mk, ax[0]], bins=(ny, nx), range=((b0, b1), (a0, a1)), weights=w * w)[0]
         self._write_image(step.params["file"], img, "image", extent=(a0 / f, a1 / f, b0 / f, b1 / f), sum2=img2)
         self.out(f"EXPORT {obj.name}: WINDOW grid {nx}x{ny} x {L} lines, {img.sum():.6g} W -> {step.params['file']}")
+
+    def do_psf(self, step, interp):
+        from .optics.psf_step import run_psf   # the diffraction PSF (irtlang/optics/diffraction.py)
+        run_psf(self, step, interp)
 
     def do_save_rays(self, step, interp):
         from analysis.rayfile import write_rays_v1

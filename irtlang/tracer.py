@@ -167,7 +167,7 @@ class TraceContext:
             dep_w = np.zeros((nch, self.cap))
             dep_n = np.zeros(nch, np.int64)
             rc = self.rcap
-            rec = dict(position=np.zeros((nch, rc, 3)), direction=np.zeros((nch, rc, 3)), flux=np.zeros((nch, rc)),
+            rec = dict(position=np.zeros((nch, rc, 6)), direction=np.zeros((nch, rc, 3)), flux=np.zeros((nch, rc)),
                        line=np.zeros((nch, rc), np.int32), source=np.zeros((nch, rc), np.int32),
                        object=np.zeros((nch, rc), np.int32), events=np.zeros((nch, rc), np.int32),
                        flags=np.zeros((nch, rc), np.uint32), history=np.zeros((nch, rc, H), np.int32),
@@ -199,6 +199,9 @@ class TraceContext:
         recs = None
         if self.records:
             recs = {k: np.concatenate([v[c, :rec_n[c]] for c in range(nch)]) for k, v in rec.items()}
+            # the kernel writes positions as double-double (hi, lo): "position" stays the plain double,
+            # "position_lo" keeps the rest, so points on an instrument placed 0.18 AU away stay exact
+            recs["position"], recs["position_lo"] = recs["position"][:, :3].copy(), recs["position"][:, 3:].copy()
         return BatchTally(first, n, led, inc_sq, dep_idx, dep_w, dep_n, recs)
 
 

@@ -21,6 +21,8 @@ rise over 4.39 w = 22 nm, typical of interference filters) and T_peak = 0.90 (an
     band  950: lo 900, hi 1050 (FWHM 150 nm; the 900 nm long-pass edge and the dichroic at 1.05 um)
 
 The dichroic beam splitter itself is not modelled elsewhere: its two edges are folded into bands 350 and 950.
+``band = 'clear'`` (one of the wheel's two clear apertures) is the dichroic alone: 50 % points 340 and 1050 nm,
+peak 1.0.
 
 CCD quantum efficiency: a generic thinned, back-illuminated silicon CCD with a broadband anti-reflection coating
 (the HRI-VIS CCD is a Fairchild 1024 x 1024 split-frame-transfer device; its measured QE is not used here).
@@ -35,8 +37,9 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 BANDS = {350: (340.0, 400.0), 450: (400.0, 500.0), 550: (500.0, 600.0), 650: (600.0, 700.0), 750: (700.0, 800.0),
-         850: (800.0, 900.0), 950: (900.0, 1050.0)}
+         850: (800.0, 900.0), 950: (900.0, 1050.0), "clear": (340.0, 1050.0)}
 T_PEAK = 0.90
+PEAK = {"clear": 1.0}
 EDGE_NM = 5.0
 QE_KNOTS = [(300, 0.10), (350, 0.30), (400, 0.55), (450, 0.70), (500, 0.78), (550, 0.82), (600, 0.84), (650, 0.83),
             (700, 0.80), (750, 0.74), (800, 0.65), (850, 0.52), (900, 0.37), (950, 0.23), (1000, 0.11),
@@ -50,7 +53,7 @@ def _s(x: float) -> float:
 
 def filter_transmission(band: int, lam_nm: float) -> float:
     lo, hi = BANDS[band]
-    return T_PEAK * _s((lam_nm - lo) / EDGE_NM) * _s((hi - lam_nm) / EDGE_NM)
+    return PEAK.get(band, T_PEAK) * _s((lam_nm - lo) / EDGE_NM) * _s((hi - lam_nm) / EDGE_NM)
 
 
 def qe(lam_nm: float) -> float:
@@ -63,8 +66,9 @@ def qe(lam_nm: float) -> float:
 def main() -> None:
     for band in BANDS:
         lo, hi = BANDS[band]
-        rows = [f"# HRI-VIS band {band} nm: MODEL bandpass (see make_hri_vis_data.py), 50% points {lo:g} and "
-                f"{hi:g} nm, peak {T_PEAK}, logistic edges w = {EDGE_NM:g} nm", "wavelength_nm,transmission"]
+        rows = [f"# HRI-VIS band {band}: MODEL bandpass (see make_hri_vis_data.py), 50% points {lo:g} and "
+                f"{hi:g} nm, peak {PEAK.get(band, T_PEAK)}, logistic edges w = {EDGE_NM:g} nm",
+                "wavelength_nm,transmission"]
         rows += [f"{x},{filter_transmission(band, x):.6f}" for x in GRID]
         (HERE / f"hri_vis_filter_{band}.csv").write_text("\n".join(rows) + "\n")
     rows = ["# CCD quantum efficiency: MODEL of a thinned back-illuminated silicon CCD (see make_hri_vis_data.py)",

@@ -194,6 +194,10 @@ def _load_map(mdef: M.MapDef) -> np.ndarray:
     from ..io.maps import load_latlon
     from pathlib import Path
 
+    if mdef.path is None:      # MAP name LATLON DEFAULT dataset: the default data tier (built at first use)
+        from ..earth.data import load_dataset
+
+        return load_dataset(mdef.dataset)
     return load_latlon(Path(mdef.path))
 
 
@@ -335,8 +339,15 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
                 continue
             mdef = scene.maps[sc.map]
             if mdef.path is None:
-                raise MissingFeature(sc.span, f"MAP {mdef.name} LATLON DEFAULT {mdef.dataset}",
-                                     "the built-in Earth datasets (issue: the Earth system model)")
+                from ..earth.data import DatasetUnavailable
+
+                try:
+                    dgrid = _load_map(mdef)
+                except DatasetUnavailable as e:
+                    raise error(mdef.span, f"MAP {mdef.name} LATLON DEFAULT {mdef.dataset}: {e}") from None
+                if np.issubdtype(dgrid.dtype, np.integer) and int(dgrid.max()) + 1 > len(sc.models):
+                    raise error(sc.span, f"map {mdef.name} has {int(dgrid.max()) + 1} classes but MODELS names "
+                                f"{len(sc.models)}", "name one model per class index 0 .. n-1")
             if sc.map not in used_maps:
                 used_maps.append(sc.map)
             mi = used_maps.index(sc.map)

@@ -32,7 +32,7 @@ import numba
 import numpy as np
 
 from .bvh import hit_mesh
-from .geometry import (conic_normal, drop_leaving_root, ellipsoid_normal, hit_conic, hit_ellipsoid, hit_plane, hit_sphere, hit_tube,
+from .geometry import (conic_normal, drop_leaving_root, two_prod, ellipsoid_normal, hit_conic, hit_ellipsoid, hit_plane, hit_sphere, hit_tube,
                        in_annulus, in_disk, in_ellipse, in_rect, sphere_normal, tube_normal)
 from .optics import fresnel_unpolarized, refract
 from .rng import uniform2
@@ -64,7 +64,6 @@ FL_SCATTERED, FL_TRANSMITTED, FL_REFLECTED, FL_HALTED, FL_ESCAPED, FL_LOST = 1, 
 EV_R, EV_T, EV_S, EV_A = 1, 2, 3, 4
 EPS_SELF = 1e-9
 TWO_PI = 2.0 * math.pi
-_SPLIT = 134217729.0
 
 
 # ---------------------------------------------------------------------------------------------- double-double
@@ -76,25 +75,11 @@ def _two_sum(a, b):
 
 
 @numba.njit(cache=True, inline="always")
-def _two_prod(a, b):
-    p = a * b
-    if abs(a) > 1e150 or abs(b) > 1e150:
-        return p, 0.0
-    t = _SPLIT * a
-    ah = t - (t - a)
-    al = a - ah
-    t = _SPLIT * b
-    bh = t - (t - b)
-    bl = b - bh
-    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
-
-
-@numba.njit(cache=True, inline="always")
 def _adv(h, l, t, d):
     """(h + l) + t d in double-double."""
     if not F_PRECISE:
         return h + t * d, 0.0
-    p, pe = _two_prod(t, d)
+    p, pe = two_prod(t, d)
     s, se = _two_sum(h, p)
     lo = l + pe + se
     hi = s + lo
@@ -334,6 +319,27 @@ def _cone_dir(u0, u1, omc, kx, ky, kz):
     y = st * math.sin(ph)
     t1x, t1y, t1z, t2x, t2y, t2z = onb(kx, ky, kz)
     return x * t1x + y * t2x + ct * kx, x * t1y + y * t2y + ct * ky, x * t1z + y * t2z + ct * kz
+
+
+@numba.njit(cache=True, inline="always")
+def _roulette(w, w0, halt, u):
+    """Russian roulette below halt * w0: (new weight, flux to book as HALTED).  Survivors carry halt * w0 and
+    their gain is booked negative, so the ledger closes exactly."""
+    if w <= 0.0 or w >= halt * w0:
+        return w, 0.0
+    if u < w / (halt * w0):
+        return halt * w0, -(halt * w0 - w)
+    return 0.0, w
+
+
+@numba.njit(cache=True, inline="always")
+def _toward(phx, phy, phz, plx, ply, plz, o_bc, o_br, tgt, u0, u1):
+    """A direction uniform in the cone from p that holds the target's bounding sphere, and that cone's solid
+    angle."""
+    kx, ky, kz, omc = _cone_to(0.0, 0.0, 0.0, o_bc[tgt, 0] - phx - plx, o_bc[tgt, 1] - phy - ply,
+                               o_bc[tgt, 2] - phz - plz, o_br[tgt])
+    x, y, z = _cone_dir(u0, u1, omc, kx, ky, kz)
+    return x, y, z, TWO_PI * omc
 
 
 @numba.njit(cache=True)
@@ -652,6 +658,9 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                 hx = phx + plx
                 hy = phy + ply
                 hz = phz + plz
+                hlx = plx - (hx - phx)      # what the double hx leaves out: records keep it (far scenes)
+                hly = ply - (hy - phy)
+                hlz = plz - (hz - phz)
                 adx = dx
                 ady = dy
                 adz = dz
@@ -712,14 +721,11 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                 if F_IMPORTANCE and tgt >= 0:
                                     nr = med_nee[m1]
                                     for q in range(nr):
-                                        cx = o_bc[tgt, 0] - phx - plx
-                                        cy = o_bc[tgt, 1] - phy - ply
-                                        cz = o_bc[tgt, 2] - phz - plz
-                                        kx, ky, kz, omc = _cone_to(0.0, 0.0, 0.0, cx, cy, cz, o_br[tgt])
                                         v0, v1 = uniform2(seed, i, ev, path * 64 + 8 + 2 * q)
-                                        ox_, oy_, oz_ = _cone_dir(v0, v1, omc, kx, ky, kz)
+                                        ox_, oy_, oz_, om = _toward(phx, phy, phz, plx, ply, plz, o_bc, o_br, tgt,
+                                                                    v0, v1)
                                         mu_ = dx * ox_ + dy * oy_ + dz * oz_
-                                        cw = w * _phase(pk, gg, gam, mu_) * TWO_PI * omc / nr
+                                        cw = w * _phase(pk, gg, gam, mu_) * om / nr
                                         if cw > 0.0 and sp < SMAX:
                                             _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev,
                                                   -1.0, 1.0, npath, FL_SCATTERED, -1.0, opl, sx0, sy0, hist, H)
@@ -737,13 +743,9 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                 # roulette on the volume path too
                                 if w > 0.0 and w < halt * w0:
                                     ur, _u = uniform2(seed, i, ev, path * 64 + 62)
-                                    p_ = w / (halt * w0)
-                                    if ur < p_:
-                                        led[c, r_halt, C_ABS, line] -= halt * w0 - w
-                                        w = halt * w0
-                                    else:
-                                        led[c, r_halt, C_ABS, line] += w
-                                        w = 0.0
+                                    w, booked = _roulette(w, w0, halt, ur)
+                                    led[c, r_halt, C_ABS, line] += booked
+                                    if w == 0.0:
                                         flags |= FL_HALTED
                                 continue
                     if F_ABSORB_MEDIA and it >= 2:
@@ -775,6 +777,9 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                     hx = phx + plx
                     hy = phy + ply
                     hz = phz + plz
+                    hlx = plx - (hx - phx)
+                    hly = ply - (hy - phy)
+                    hlz = plz - (hz - phz)
                     adx = dx
                     ady = dy
                     adz = dz
@@ -805,6 +810,14 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                     elif it == 2:
                         R = coat_R[o_coat[o], line]
                         T = coat_T[o_coat[o], line]
+                        if F_REFRACT and T > 0.0:
+                            # a coated boundary between two media refracts; beyond the critical angle its
+                            # transmitted share cannot leave and is reflected (total internal reflection)
+                            n1 = med_n[m1, line]
+                            n2 = med_n[m2, line]
+                            if n1 > n2 and n1 * n1 * (1.0 - ci * ci) >= n2 * n2:
+                                R += T
+                                T = 0.0
                     else:
                         R = fresnel_unpolarized(abs(ci), med_n[m1, line], med_n[m2, line])
                         T = 1.0 - R
@@ -864,15 +877,11 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                         if F_IMPORTANCE and tgt >= 0 and not nee:
                             nr = sc_n
                             for q in range(nr):
-                                cx = o_bc[tgt, 0] - phx - plx
-                                cy = o_bc[tgt, 1] - phy - ply
-                                cz = o_bc[tgt, 2] - phz - plz
-                                kx, ky, kz, omc = _cone_to(0.0, 0.0, 0.0, cx, cy, cz, o_br[tgt])
                                 v0, v1 = uniform2(seed, i, ev, path * 64 + 8 + 2 * q)
-                                ox_, oy_, oz_ = _cone_dir(v0, v1, omc, kx, ky, kz)
+                                ox_, oy_, oz_, om = _toward(phx, phy, phz, plx, ply, plz, o_bc, o_br, tgt, v0, v1)
                                 co = ox_ * nvx + oy_ * nvy + oz_ * nvz
                                 f = _bsdf_eval(mk, Pm, line, -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz)
-                                cw = w * f * abs(co) * TWO_PI * omc / nr
+                                cw = w * f * abs(co) * om / nr
                                 if cw > 0.0 and sp < SMAX:
                                     if F_HISTORY and ev - 1 < H:
                                         hist[ev - 1] = o * 8 + EV_S
@@ -907,7 +916,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                             w *= tot
                             flags |= FL_TRANSMITTED
                             evkind = EV_T
-                            if F_REFRACT and it == 3:
+                            if F_REFRACT and it >= 2:
                                 n1 = med_n[m1, line]
                                 n2 = med_n[m2, line]
                                 if n1 != n2:
@@ -969,19 +978,20 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                     # Russian roulette
                     if w > 0.0 and w < halt * w0:
                         ur, _u = uniform2(seed, i, ev, path * 64 + 63)
-                        p = w / (halt * w0)
-                        if ur < p:
-                            led[c, r_halt, C_ABS, line] -= halt * w0 - w
-                            w = halt * w0
-                        else:
-                            led[c, r_halt, C_ABS, line] += w
-                            w = 0.0
+                        w, booked = _roulette(w, w0, halt, ur)
+                        led[c, r_halt, C_ABS, line] += booked
+                        if w == 0.0:
                             flags |= FL_HALTED
                 if F_RECORDS:
                     if nrec < rcap:
                         rec_pos[c, nrec, 0] = hx
                         rec_pos[c, nrec, 1] = hy
                         rec_pos[c, nrec, 2] = hz
+                        if rec_pos.shape[2] >= 6:
+                            # the low part of the double-double position: hx + hlx is exact to ~1e-16 relative
+                            rec_pos[c, nrec, 3] = hlx
+                            rec_pos[c, nrec, 4] = hly
+                            rec_pos[c, nrec, 5] = hlz
                         rec_dir[c, nrec, 0] = adx
                         rec_dir[c, nrec, 1] = ady
                         rec_dir[c, nrec, 2] = adz

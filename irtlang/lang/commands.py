@@ -623,6 +623,17 @@ def _check_scene(it, b) -> None:
                     if n is not None and n > len(sc.models):
                         raise error(sc.span, f"map {m.name} has {n} classes but MODELS names {len(sc.models)}",
                                     "name one model per class index 0 .. n-1")
+                    if n is None and len(sc.models) == 1:      # a fraction map: the check irt run makes (pack)
+                        import numpy as np
+                        from pathlib import Path as _P
+
+                        from ..io.maps import load_latlon
+
+                        g = load_latlon(_P(m.path))
+                        if np.nanmin(g) < 0 or np.nanmax(g) > 1:
+                            raise error(sc.span, f"map {m.name} is used as a fraction map (one model) but holds "
+                                        f"values outside [0, 1] ({np.nanmin(g):g} .. {np.nanmax(g):g})",
+                                        "give a class map one model per class, or scale the fractions to [0, 1]")
         # a transmitting model on an opaque object (SCATTER checks this only against an INTERFACE given
         # before it; here: INTERFACE after SCATTER, no INTERFACE (absorbing), and SCATTER MAP ... MODELS)
         opaque = obj.interface is None or obj.interface.kind in ("reflect", "absorb")
@@ -779,11 +790,36 @@ def _focus(it, b, st):
     it.step("FOCUS", {}, b.span)
 
 
-@command("EXPORT", Form((Ref("object", "object"), Path("file"))), "analysis",
-         "write the object's image: .fits .png .npy .csv by extension")
+@command("EXPORT", Form((Ref("object", "object"), Path("file")), (
+    Clause("DIFFRACTION", (), doc="the detector image convolved with the last PSF's diffraction kernel"),)),
+         "analysis", "write the object's image: .fits .png .npy .csv by extension")
 def _export(it, b, st):
     f = b["file"]
     ext = f.rsplit(".", 1)[-1].lower() if "." in f else ""
     if ext not in ("fits", "fit", "png", "npy", "csv"):
         raise error(b.span_of("file"), f"EXPORT cannot write '.{ext}' files", "use .fits, .png, .npy or .csv")
-    it.step("EXPORT", {"object": b["object"], "file": f}, b.span)
+    it.step("EXPORT", {"object": b["object"], "file": f, **({"diffraction": True} if "diffraction" in b else {})},
+            b.span)
+
+
+def _odd_size(x):
+    return None if x >= 1 and x % 2 == 1 else "must be an odd whole number >= 1"
+
+
+@command("PSF", Form((Path("file", optional=True),), (
+    Clause("ON", (Ref("object", "object"),), doc="the detector (default: the one DETECTOR object considered)"),
+    Clause("PAD", (V("pad", check=lambda x: None if 2 <= x <= 64 else "must be in [2, 64]"),),
+           doc="zero-padding factor of the pupil FFT (default 8)"),
+    Clause("SIZE", (V("size", integer=True, check=_odd_size),), doc="kernel / file size in pixels (default 65)"))),
+         "analysis", "diffraction PSF from the traced wavefront of a GRID RECT (FFT over the pupil)")
+def _psf(it, b, st):
+    f = b.get("file")
+    if f is not None:
+        ext = f.rsplit(".", 1)[-1].lower() if "." in f else ""
+        if ext not in ("fits", "fit", "png", "npy", "csv"):
+            raise error(b.span_of("file"), f"PSF cannot write '.{ext}' files", "use .fits, .png, .npy or .csv")
+    # PSF sets these (lengths, PSF_STREHL a number); a check run has no rays, so there they hold 0
+    for var in ("PSF_FWHM", "PSF_EE80", "PSF_RING", "PSF_OUTER", "PSF_EFL"):
+        it.assign(var, Quantity(0.0, LENGTH), b.span)
+    it.assign("PSF_STREHL", Quantity(0.0, NONE), b.span)
+    it.step("PSF", {"file": f, "object": b.get("object"), "pad": b.get("pad"), "size": b.get("size")}, b.span)

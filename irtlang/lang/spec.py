@@ -513,12 +513,14 @@ def _convert(p: Param, it, ctx, where: str) -> float:
         if x != int(x):
             raise error(it.span, f"{where}: {p.label} must be a whole number, got {x:g}")
         x = int(x)
-    _check(p, x, it.span, where)
+    # a bare number is shown as written (x is in canonical units: EXTINCTION -0.001 under UNITS KM is -1e-06 /m)
+    bare = p.dim not in (None, NONE) and not isinstance(v, str) and (v.dim is None or v.dim == NONE)
+    _check(p, x, it.span, where, f"{v.value:g}" if bare else None)
     return x
 
 
-def _check(p: Param, x, span, where):
+def _check(p: Param, x, span, where, shown=None):
     if p.check is not None:
         msg = p.check(x)
         if msg:
-            raise error(span, f"{where}: {p.label} {msg}, got {x:g}")
+            raise error(span, f"{where}: {p.label} {msg}, got {shown if shown is not None else format(x, 'g')}")

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _trace_util import (INC, REF, TRA, binomial_sigma, fmt, fresnel_unpolarized_ref, ledger_gap, row,  # noqa: E402
+from _trace_util import (ABS, INC, REF, TRA, binomial_sigma, fmt, fresnel_unpolarized_ref, ledger_gap, row,  # noqa: E402
                          trace_file, trace_text)
 
 WATER = 1.333
@@ -212,4 +212,62 @@ TRACE
     assert abs(t - T) <= 5 * sigma, (t, T, sigma)
     assert t + r == pytest.approx(1.0, rel=1e-12)     # nothing absorbed, halted or escaped
     assert row(res, "HALTED")[4] == 0.0 and row(res, "ESCAPED")[4] == 0.0
+    assert ledger_gap(res) < 1e-12
+
+
+def _coated_script(sin_in, n_glass, from_glass):
+    """An interface with an R/T-table coating (COATING ar REFLECT 0.01 TRANSMIT 0.98) between air and glass."""
+    media = "glass AIR" if from_glass else "AIR glass"
+    return f"""SYSTEM NEW
+UNITS MM
+WAVELENGTHS 550 NM
+SEED 3
+MEDIUM glass INDEX {fmt(n_glass)}
+COATING ar REFLECT 0.01 TRANSMIT 0.98
+SURFACE
+  PLANE Z 0
+OBJECT face
+  INTERFACE COATING ar {media}
+SURFACE
+  PLANE Z 10
+OBJECT catcher
+LEVEL 10
+HALT 0
+GRID RECT Z -1 -1 1 -1 1 100 100
+SOURCE DIRECTION {fmt(sin_in)} 0 {fmt(math.sqrt(1 - sin_in ** 2))}
+FLUX TOTAL 1 W
+TRACE
+"""
+
+
+def test_coated_interface_refracts(tmp_path):
+    """Regression: a boundary with an R/T coating between two media must bend the transmitted rays by Snell's
+    law like an uncoated one (it used to let them through undeviated).  The shares are the coating's:
+    R/(R+T) by Monte Carlo (binomial, 5 sigma), weight (R+T) kept, A = 1 - R - T booked exactly."""
+    n2 = 1.5
+    res = trace_text(tmp_path, _coated_script(0.5, n2, from_glass=False))
+    r = res.records
+    on = r["object"] == 1
+    d = r["direction"][on]
+    assert on.sum() > 9000
+    assert np.max(np.abs(np.hypot(d[:, 0], d[:, 1]) * n2 - 0.5)) < 1e-12
+    f = row(res, "face")
+    n = res.n_traced
+    assert f[ABS] == pytest.approx(0.01, rel=1e-12)
+    p = 0.01 / 0.99
+    assert abs(f[REF] / (f[REF] + f[TRA]) - p) <= 5 * binomial_sigma(p, n)
+    assert ledger_gap(res) < 1e-12
+
+
+def test_coated_interface_total_internal_reflection(tmp_path):
+    """From inside the glass beyond the critical angle, the coating's transmitted share cannot leave: it is
+    reflected (R + T), the absorbed 1 - R - T stays absorbed, nothing reaches the air side."""
+    n1 = 1.5
+    sin_in = 1.0 / n1 + 1e-6
+    res = trace_text(tmp_path, _coated_script(sin_in, n1, from_glass=True))
+    f = row(res, "face")
+    assert f[TRA] == 0.0
+    assert f[REF] == pytest.approx(0.99, rel=1e-12)
+    assert f[ABS] == pytest.approx(0.01, rel=1e-12)
+    assert row(res, "catcher")[INC] == 0.0
     assert ledger_gap(res) < 1e-12

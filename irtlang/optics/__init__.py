@@ -1,0 +1,1 @@
+"""Wave-optics post-processing of traced rays (pure NumPy/SciPy, no kernels): the diffraction PSF."""
