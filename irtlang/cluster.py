@@ -88,7 +88,7 @@ def connect(scheduler: str | None = None, workers: int | None = None, timeout: f
             raise ClusterError(f"the Dask scheduler at {scheduler} has no workers (waited {timeout:g} s); "
                                f"start some with `dask worker {scheduler}`") from None
         return client
-    n = int(workers or 1)
+    n = 1 if workers is None else int(workers)
     if n < 1:
         raise ClusterError("--workers needs at least 1 worker")
     nth = threads or default_threads(n)

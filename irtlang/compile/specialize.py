@@ -64,8 +64,23 @@ def _sources_hash() -> str:
     return h.hexdigest()[:12]
 
 
+def all_features() -> Features:
+    """Every feature on and every scatter model in the dispatch: one kernel for any scene."""
+    from ..plugins.bsdfs import REGISTRY
+
+    f = Features(**{k: True for k in _FLAGS})
+    f.bsdf_kinds = tuple(REGISTRY)
+    return f
+
+
 def kernel_module(features: Features):
-    """The trace-kernel module specialized for `features` (generated and imported once per process)."""
+    """The trace-kernel module specialized for `features` (generated and imported once per process).
+
+    With the environment variable ``IRT_KERNEL_FEATURES=all`` every scene uses one kernel with all features
+    (one compilation for a whole test suite; the results agree with the specialized kernels to rounding,
+    which a test checks)."""
+    if os.environ.get("IRT_KERNEL_FEATURES", "").lower() == "all":
+        features = all_features()
     key = features.key()
     if key in _loaded:
         return _loaded[key]

@@ -221,6 +221,19 @@ def test_bad_scheduler_address_and_worker_count(tmp_path, monkeypatch):
     assert cli.main(["run", str(f), "--scheduler", "nonsense://x"]) == cli.EXIT_RUNTIME
 
 
+def test_a_scheduler_without_workers_is_reported():
+    from irtlang.cluster import ClusterError
+
+    with distributed.LocalCluster(n_workers=0, processes=True, host="127.0.0.1",
+                                  dashboard_address="127.0.0.1:0") as empty:
+        t0 = time.monotonic()
+        with pytest.raises(ClusterError, match=r"has no workers \(waited 1 s\)"):
+            connect(scheduler=empty.scheduler_address, timeout=1)
+        assert time.monotonic() - t0 < 10
+    with pytest.raises(ClusterError, match="at least 1 worker"):
+        connect(workers=0)
+
+
 # ------------------------------------------------------------------------------------------------ faults
 def _killing_runner(client, runner):
     """Wraps a runner: after the first tally, wait for the units in flight, then SIGKILL the worker holding

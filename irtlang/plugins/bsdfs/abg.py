@@ -60,7 +60,7 @@ def normal_albedo(a: float, b: float, g: float) -> float:
     pts = [p for p in (scale, 10 * scale) if 0 < p < 1]
     v = integrate.quad(lambda r: r / (b + r ** g), 0.0, 1.0, points=pts or None, limit=200,
                        epsabs=1e-13, epsrel=1e-11)[0]
-    return 2.0 * math.pi * a * v
+    return 2.0 * math.pi * float(a) * v   # a plain float: an enormous A gives inf (refused), not a warning
 
 
 def build(b, ctx) -> dict:
@@ -69,7 +69,7 @@ def build(b, ctx) -> dict:
     A, B, G = (tuple(np.broadcast_to(x, (n,))) for x in (A, B, G))
     for i, (x, y, z) in enumerate(zip(A, B, G)):
         alb = normal_albedo(x, y, z)
-        if alb > 1.0 + 1e-9:
+        if not alb <= 1.0 + 1e-9:
             raise error(b.span, f"ABG reflects {alb:.4g} > 1 at normal incidence on line {i + 1}",
                         "lower A or raise B")
     return {"a": A, "b": B, "g": G}

@@ -1,0 +1,112 @@
+"""The Earth model as script text: MODEL lines for the atmosphere layers, clouds, aerosols and surfaces, and the
+include files an Earth script (examples_scripts/earth.inr) reads.
+
+``write_earth_includes(folder, bands_nm)`` writes
+
+* ``earth_surfaces.inr``: one model per LANDCOVER class (ocean glint, 15 land BRDFs, snow/ice), ``sea_ice`` and
+  ``snow`` (irtlang.earth.surfaces);
+* ``earth_atmosphere.inr``: ``air_1`` .. ``air_n``, one RAYLEIGH slab per layer, its TAU the Rayleigh optical
+  depth (Bodhaine et al. 1999, USSA 1976 pressures; irtlang.earth.atmosphere) plus the gas absorption optical
+  depth (irtlang.earth.gas) and its ALBEDO the Rayleigh share tau_R / (tau_R + tau_abs);
+* ``earth_clouds.inr``: ``cloud_low``, ``cloud_middle``, ``cloud_high`` HG slabs (irtlang.earth.clouds) with the
+  typical microphysics of ``CLOUD_LAYERS``;
+* ``earth_aerosols.inr``: ``aer_<type>_<i>`` HG slabs for each of the five Earth aerosol types in each layer
+  below 12 km (irtlang.earth.aerosols);
+* ``earth_maps.inr``: the MAP lines of the default-tier datasets (``MAP cover LATLON DEFAULT LANDCOVER`` ...) and,
+  for the per-layer cloud maps that the language has no DEFAULT name for, ``.npy`` copies next to the includes
+  with ``MAP ... LATLON 'cloud_low.npy'`` lines.
+
+Every value is per wavelength line, in the order of bands_nm: the script's WAVELENGTHS must list the same lines.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from . import aerosols, clouds, gas, surfaces
+from .atmosphere import rayleigh_tau_layers
+
+# 15 layers, boundaries 0 .. 100 km: the layering used for the seed paper's atmosphere (and in the tests of
+# irtlang.earth.atmosphere).
+PAPER_LEVELS_KM = (0.0, 0.4, 0.8, 1.0, 1.5, 2.0, 3.0, 3.5, 5.0, 6.0, 10.0, 12.0, 25.0, 35.0, 50.0, 100.0)
+
+# typical microphysics of the three cloud layers: (base km, top km, LWC g/m3, r_e um, IWC g/m3, D_ge um)
+CLOUD_LAYERS = {
+    "low": (1.0, 1.5, 0.20, 10.0, 0.0, 60.0),       # stratocumulus: tau ~ 16 at 550 nm
+    "middle": (3.5, 5.0, 0.06, 12.0, 0.01, 50.0),   # altostratus, mixed phase: tau ~ 8
+    "high": (10.0, 12.0, 0.0, 10.0, 0.01, 60.0),    # cirrus: tau ~ 0.8
+}
+
+
+def _fmt(v) -> str:
+    return " ".join(f"{x:.6g}" for x in np.atleast_1d(v))
+
+
+def atmosphere_layer_lines(bands_nm=surfaces.HRI_BANDS_NM, levels_km=PAPER_LEVELS_KM, *, prefix: str = "air",
+                           gas_absorption: bool = True, **gas_kw) -> list:
+    """One `MODEL air_i RAYLEIGH TAU ... ALBEDO ...` per layer (i = 1 at the ground)."""
+    bands = list(bands_nm)
+    tr = rayleigh_tau_layers(levels_km, bands)
+    ta = gas.layer_absorption(levels_km, bands, **gas_kw)["total"] if gas_absorption else np.zeros_like(tr)
+    out = []
+    for i in range(tr.shape[0]):
+        tau = tr[i] + ta[i]
+        w = np.where(tau > 0, tr[i] / np.where(tau > 0, tau, 1.0), 1.0)
+        out.append(f"MODEL {prefix}_{i + 1} RAYLEIGH TAU {_fmt(tau)} ALBEDO {_fmt(np.clip(w, 0.0, 1.0))}")
+    return out
+
+
+def cloud_lines(bands_nm=surfaces.HRI_BANDS_NM, layers=None) -> list:
+    out = []
+    for name, (z0, z1, lwc, re, iwc, dge) in (layers or CLOUD_LAYERS).items():
+        out.append(clouds.cloud_model_line(f"cloud_{name}", bands_nm, thickness_km=z1 - z0, lwc_g_m3=lwc,
+                                           r_eff_um=re, iwc_g_m3=iwc, d_ge_um=dge))
+    return out
+
+
+def aerosol_lines(bands_nm=surfaces.HRI_BANDS_NM, levels_km=PAPER_LEVELS_KM, types=aerosols.EARTH_TYPES,
+                  top_km: float = 12.0) -> list:
+    out = []
+    z = [v for v in levels_km if v <= top_km]
+    for t in types:
+        tau, w, g = aerosols.layer_optics(t, z, bands_nm)
+        for i in range(tau.shape[0]):
+            out.append(f"MODEL aer_{t.replace(' ', '_')}_{i + 1} HG G {_fmt(g[i])} TAU {_fmt(tau[i])} "
+                       f"ALBEDO {_fmt(w[i])} ORDERS 1")
+    return out
+
+
+def _header(what: str, bands_nm) -> list:
+    return [f"!! {what} -- written by irtlang.earth.models for the lines {_fmt(bands_nm)} nm",
+            f"!! (the script must say: WAVELENGTHS {_fmt(bands_nm)} NM)"]
+
+
+def write_earth_includes(folder, bands_nm=surfaces.HRI_BANDS_NM, *, cache_dir=None) -> dict:
+    """Write the include files (and the per-layer cloud maps) into folder; returns {name: path}."""
+    from .data import export_dataset
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    bands = [float(b) for b in bands_nm]
+    files = {
+        "earth_surfaces.inr": _header("surfaces: LANDCOVER classes 0..16, sea_ice, snow", bands)
+        + surfaces.landcover_model_lines(bands),
+        "earth_atmosphere.inr": _header("atmosphere: Rayleigh + O3/H2O/O2 absorption per layer, ground up", bands)
+        + [f"!! layer boundaries (km): {_fmt(PAPER_LEVELS_KM)}"] + atmosphere_layer_lines(bands),
+        "earth_clouds.inr": _header("clouds: low (liquid), middle (mixed), high (ice)", bands) + cloud_lines(bands),
+        "earth_aerosols.inr": _header("aerosols: OPAC types per layer below 12 km", bands) + aerosol_lines(bands),
+    }
+    maps = ["MAP cover LATLON DEFAULT LANDCOVER", "MAP land LATLON DEFAULT LAND_MASK",
+            "MAP snow LATLON DEFAULT SNOW_FRACTION", "MAP seaice LATLON DEFAULT SEA_ICE_FRACTION",
+            "MAP clouds LATLON DEFAULT CLOUD_FRACTION"]
+    for layer in ("low", "middle", "high"):
+        export_dataset(f"CLOUD_{layer.upper()}", folder / f"cloud_{layer}.npy", cache_dir)
+        maps.append(f"MAP cloud_{layer} LATLON 'cloud_{layer}.npy'")
+    files["earth_maps.inr"] = ["!! maps of the default data tier (irtlang.earth.data)"] + maps
+    out = {}
+    for name, lines in files.items():
+        p = folder / name
+        p.write_text("\n".join(lines) + "\n")
+        out[name] = p
+    return out
