@@ -19,6 +19,7 @@ import io
 import math
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -26,6 +27,7 @@ from .io.manifest import RunFolder
 from .lang.diagnostics import Span
 from .lang.units import Quantity, UNITS, LENGTH
 from .model import scene as M
+from .tracer import standard_error
 
 
 class MissingCapability(Exception):
@@ -301,7 +303,7 @@ class Engine:
             raise RuntimeFailure(step.span, f"object {key} was not part of the last TRACE (CONSIDER)")
         o = names.index(key)
         flux = res.ledger[o, 0]
-        se = _se_arr(flux, res.ledger_sq[o], res.n_traced)
+        se = standard_error(flux, res.ledger_sq[o], res.n_traced)
         lines = ["wavelength_nm,flux_W,stderr_W"] + [f"{lam:.6g},{repr(float(f))},{repr(float(e))}"
                                                      for lam, f, e in zip(res.packed.lines_nm, flux, se)]
         shown = lines[:1] + lines[1:8] + (["..."] if len(lines) > 9 else []) + (lines[-1:] if len(lines) > 8 else [])
@@ -422,14 +424,10 @@ class _LoadedResult:
         self.seed = int(rf.attrs.get("seed", 0))
         self.images = {n: (d.sum, d.sum2) for n, d in rf.detectors.items()}
 
-        class _P:
-            pass
-        self.packed = _P()
-        self.packed.lines_nm = rf.wavelengths_nm
-        self.packed.object_names = list(rf.objects)
-        self.packed.detector_names = list(rf.detectors)
-        self.packed.d_ext = np.array([[*d.x_range, *d.y_range] for d in rf.detectors.values()]) * f \
-            if rf.detectors else np.zeros((0, 4))
+        self.packed = SimpleNamespace(
+            lines_nm=rf.wavelengths_nm, object_names=list(rf.objects), detector_names=list(rf.detectors),
+            d_ext=(np.array([[*d.x_range, *d.y_range] for d in rf.detectors.values()]) * f if rf.detectors
+                   else np.zeros((0, 4))))
         self.ledger = None
 
 
@@ -463,19 +461,12 @@ def _eval_pred(pred, r, names, lines_nm) -> np.ndarray:
 
 
 def _se(w, n):
-    from .tracer import standard_error
-
+    """Standard error of the total of per-path fluxes w over n source rays."""
     return float(standard_error(w.sum(), (w * w).sum(), n))
 
 
-def _se_arr(s1, s2, n):
-    from .tracer import standard_error
-
-    return standard_error(s1, s2, n)
-
-
 def _se_rows(res):
-    from .tracer import standard_error
-
-    return [float(standard_error(res.ledger[i, 0].sum(), res.ledger_sq[i].sum(), res.n_traced))
-            if i < len(res.packed.object_names) else 0.0 for i in range(res.packed.n_rows)]
+    """Standard error of each ledger row's incident flux (objects only; 0 for the other rows)."""
+    nobj = len(res.packed.object_names)
+    return [float(standard_error(res.ledger[i, 0].sum(), res.ledger_sq[i].sum(), res.n_traced)) if i < nobj else 0.0
+            for i in range(res.packed.n_rows)]

@@ -537,7 +537,7 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
     return Packed(lines, widths, [scene.objects[k].name for k in obj_keys], [scene.media[k].name for k in med_keys],
                   absorbing, feats, s_obj, s_kind, s_par, s_asph, s_nasph, s_ap_kind, s_ap, s_R, s_Th, s_Tl, s_size,
                   s_mesh, s_bs, m_node_off, m_node_n, m_tri_off, m_tri_n,
-                  cat(0, np.float64, (0, 3)), cat(1, np.float64, (0, 3)), cat(2, np.int64, (0, 2)),
+                  cat(0, np.float64, (0, 3)), cat(1, np.float64, (0, 3)), cat(2, np.int64, (0,)),
                   cat(3, np.int64, (0,)), cat(4, np.float64, (0, 9)), cat(5, np.int64, (0,)),
                   cat(6, np.float64, (0, 3)),
                   o_itf, o_coat, o_back, o_front, o_det, med_n, med_alpha, med_row, med_sig, med_alb, med_g, med_phase,

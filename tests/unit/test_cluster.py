@@ -234,6 +234,14 @@ def test_a_scheduler_without_workers_is_reported():
         connect(workers=0)
 
 
+def test_without_dask_the_error_says_what_to_install(monkeypatch):
+    from irtlang.cluster import ClusterError
+
+    monkeypatch.setitem(sys.modules, "distributed", None)   # import distributed -> ImportError
+    with pytest.raises(ClusterError, match=r'pip install "irtlang\[cluster\]"'):
+        connect(workers=1)
+
+
 # ------------------------------------------------------------------------------------------------ faults
 def _killing_runner(client, runner):
     """Wraps a runner: after the first tally, wait for the units in flight, then SIGKILL the worker holding

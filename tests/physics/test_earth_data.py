@@ -1,0 +1,295 @@
+"""The default data tier (irtlang.earth.data) against independent numbers.
+
+* Land: the Earth's land area is 148.94e6 of 510.07e6 km2 (29.2 %); 39.3 % of the northern and 19.1 % of the
+  southern hemisphere (e.g. the CIA World Factbook, and Pidwirny's Fundamentals of Physical Geography); the
+  0.5 deg mask is also compared cell by cell with the 1 km GLOBE mask it was averaged from.
+* March snow cover of the northern hemisphere: about 40.5e6 km2 (Rutgers Global Snow Lab, 1967-2020 March mean,
+  Greenland included): the proxy must be within 20 %.
+* March sea-ice extent (cells with >= 15 % ice): about 15.5e6 km2 in the north and 4.4e6 km2 in the south
+  (NSIDC Sea Ice Index, 1981-2010 March means; 2008: 15.2e6 and 4.9e6): within 1.5e6 km2.
+* Cloud fraction: global mean 0.68 +- 0.03, land 0.55-0.60 and ocean 0.70-0.72 (the GEWEX cloud assessment,
+  Stubenrauch et al. 2013, BAMS 94, 1031); the generator's own expectation (the climatology it is built on) is
+  checked zone by zone and the random field's correlation against its covariance exp(-d^2 / (2 l^2)).
+* Ice sheets: Antarctica (about 12.3e6 km2 grounded ice, 14.0e6 with the ice shelves) and Greenland
+  (2.17e6 km2, 1.71e6 ice-covered): the snow-and-ice class is 14-16.5e6 km2.
+
+The grids are built once into the user's cache (``$IRT_DATA_DIR``, default ~/.cache/irtlang/data); a build
+from scratch into a temporary folder is the slow test at the end.
+"""
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from irtlang.earth import data as D
+from irtlang.earth.latlon import LatLonGrid, area_km2, area_weighted_mean, cell_areas_km2, cell_centres
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+EARTH_AREA = 510.0656e6
+
+
+@pytest.fixture(scope="module")
+def tier():
+    paths = D.build_default_tier()
+    return {n: np.load(p) for n, p in paths.items()}
+
+
+@pytest.fixture(scope="module")
+def lat():
+    return cell_centres(D.NLAT)[0][:, None] * np.ones((1, 2 * D.NLAT))
+
+
+def test_grid_geometry_adds_up_to_the_sphere():
+    a = cell_areas_km2(360).sum() * 720
+    assert a == pytest.approx(4 * math.pi * 6371.0072 ** 2, rel=1e-12)
+    assert a == pytest.approx(EARTH_AREA, rel=1e-4)          # WGS84 ellipsoid area 510.0656e6 km2
+
+
+def test_every_dataset_is_labelled(tier):
+    for name in D.DATASETS:
+        info = D.dataset_info(name)
+        assert info["dataset"] == name
+        assert info["shape"] == [360, 720]
+        assert info["source"] and info["licence"]
+        assert isinstance(info["proxy"], bool)
+        assert info["data_version"] == D.DATA_VERSION
+        assert "LATLON" in info["convention"]
+    proxies = {n for n in D.DATASETS if D.dataset_info(n)["proxy"]}
+    assert proxies == {"LANDCOVER", "SNOW_FRACTION", "SEA_ICE_FRACTION", "CLOUD_FRACTION", "CLOUD_LOW",
+                       "CLOUD_MIDDLE", "CLOUD_HIGH"}
+    assert "PROXY" in D.dataset_info("LANDCOVER")["source"]
+    assert "global-land-mask" in D.dataset_info("LAND_MASK")["source"]
+    assert "MIT" in D.dataset_info("LAND_MASK")["licence"]
+
+
+def test_elevation_is_not_in_the_default_tier():
+    with pytest.raises(D.DatasetUnavailable, match="relief grid"):
+        D.ensure("ELEVATION")
+    with pytest.raises(D.DatasetUnavailable, match="unknown dataset"):
+        D.ensure("NDVI")
+
+
+def test_irt_data_dir_overrides_the_cache(monkeypatch, tmp_path):
+    monkeypatch.setenv("IRT_DATA_DIR", str(tmp_path / "d"))
+    assert D.data_dir() == tmp_path / "d"
+    assert D.dataset_path("land_mask") == tmp_path / "d" / "LAND_MASK.npy"
+    monkeypatch.delenv("IRT_DATA_DIR")
+    assert D.data_dir() == Path.home() / ".cache" / "irtlang" / "data"
+
+
+# ---------------------------------------------------------------- land
+def test_land_share_of_the_globe_and_the_hemispheres(tier, lat):
+    lf = tier["LAND_FRACTION"]
+    assert area_weighted_mean(lf) == pytest.approx(148.94 / 510.07, abs=0.005)
+    assert area_km2(lf * (lat > 0)) / (EARTH_AREA / 2) == pytest.approx(0.393, abs=0.01)
+    assert area_km2(lf * (lat < 0)) / (EARTH_AREA / 2) == pytest.approx(0.191, abs=0.01)
+    lm = tier["LAND_MASK"]
+    assert lm.dtype == np.uint8 and set(np.unique(lm)) == {0, 1}
+    assert area_weighted_mean(lm.astype(float)) == pytest.approx(0.292, abs=0.006)
+
+
+PLACES = {  # (lat, lon): land?
+    "Paris": (48.86, 2.35, 1), "Null Island": (0.0, 0.0, 0), "mid-Pacific": (0.0, -150.0, 0),
+    "Alice Springs": (-23.7, 133.9, 1), "South Pole": (-89.9, 0.0, 1), "North Pole": (89.9, 0.0, 0),
+    "Manaus": (-3.1, -60.0, 1), "Chicago": (41.9, -87.8, 1), "Sargasso Sea": (30.0, -60.0, 0),
+    "Novosibirsk": (55.0, 82.9, 1), "Indian Ocean": (-30.0, 80.0, 0), "Greenland": (72.0, -40.0, 1),
+}
+
+
+@pytest.mark.parametrize("place", sorted(PLACES))
+def test_the_land_mask_knows_where_the_land_is(tier, place):
+    la, lo, land = PLACES[place]
+    assert LatLonGrid(tier["LAND_MASK"], "m").value_at(la, lo) == land
+
+
+def test_land_mask_agrees_with_its_one_km_source(tier):
+    gm = pytest.importorskip("global_land_mask.globe")
+    rng = np.random.default_rng(5)
+    r = rng.integers(0, 360, 3000)
+    q = rng.integers(0, 720, 3000)
+    la, lo = cell_centres(360)
+    frac = tier["LAND_FRACTION"][r, q]
+    clear = (frac < 0.1) | (frac > 0.9)        # cells that are (nearly) all land or all sea
+    src = gm.is_land(la[r][clear], lo[q][clear])
+    assert np.mean(src == (tier["LAND_MASK"][r, q][clear] == 1)) > 0.97
+
+
+# ---------------------------------------------------------------- land cover proxy
+def test_landcover_is_water_exactly_where_the_mask_is(tier):
+    lc = tier["LANDCOVER"]
+    assert lc.dtype == np.uint8 and lc.max() <= 16
+    assert np.array_equal(lc == 0, tier["LAND_MASK"] == 0)
+    assert len(D.IGBP_CLASSES) == 17
+
+
+def test_snow_and_ice_class_covers_the_ice_sheets(tier):
+    a = area_km2(tier["LANDCOVER"] == D.SNOW)
+    assert 14.0e6 < a < 16.5e6
+
+
+@pytest.mark.parametrize("where, lat, lon, classes", [
+    ("Sahara", 23.0, 10.0, {D.BAR}), ("Amazon", -3.0, -62.0, {D.EBF}), ("Congo", 0.0, 22.0, {D.EBF}),
+    ("Borneo", 1.0, 114.0, {D.EBF}), ("central Siberia", 62.0, 90.0, {D.ENF}), ("Yakutia", 62.0, 130.0, {D.DNF}),
+    ("Iowa", 42.0, -93.5, {D.CRO}), ("Great Sandy Desert", -21.0, 124.0, {D.OSH, D.BAR}),
+    ("Greenland", 72.0, -40.0, {D.SNOW}), ("Antarctica", -80.0, 30.0, {D.SNOW}), ("Arabia", 22.0, 48.0, {D.BAR}),
+    ("Serengeti", -2.5, 35.0, {D.SAV}), ("France", 47.0, 2.0, {D.CRO}), ("Canadian shield", 55.0, -75.0, {D.ENF}),
+    ("Kazakh steppe", 50.0, 70.0, {D.GRA}), ("Gobi", 43.0, 105.0, {D.BAR}),
+])
+def test_landcover_proxy_puts_the_great_biomes_where_they_are(tier, where, lat, lon, classes):
+    assert LatLonGrid(tier["LANDCOVER"], "c").value_at(lat, lon) in classes, where
+
+
+# ---------------------------------------------------------------- snow and sea ice (March)
+def test_march_snow_cover_of_the_north(tier, lat):
+    s = tier["SNOW_FRACTION"]
+    assert s.min() >= 0 and s.max() <= 1
+    assert np.all(s[tier["LAND_MASK"] == 0] == 0)
+    nh = area_km2(s * (lat > 0))
+    assert nh == pytest.approx(40.5e6, rel=0.2)
+    sh_no_antarctica = area_km2(s * ((lat < 0) & (lat > -60)))
+    assert sh_no_antarctica < 0.1e6
+
+
+def test_march_sea_ice_extent(tier, lat):
+    si = tier["SEA_ICE_FRACTION"]
+    assert si.min() >= 0 and si.max() <= 1
+    assert np.all(si[tier["LAND_MASK"] == 1] == 0)
+    ext = si >= 0.15
+    assert area_km2(ext & (lat > 0)) == pytest.approx(15.5e6, abs=1.5e6)
+    assert area_km2(ext & (lat < 0)) == pytest.approx(4.4e6, abs=1.0e6)
+    g = LatLonGrid(si, "i")
+    assert g.value_at(88.0, 0.0) > 0.9 and g.value_at(60.0, -85.0) > 0.9       # Arctic Ocean, Hudson Bay
+    assert g.value_at(65.0, 2.0) == 0 and g.value_at(40.0, -40.0) == 0       # Norwegian Sea, mid-Atlantic
+
+
+# ---------------------------------------------------------------- clouds
+def test_cloud_maps_have_ten_levels_and_are_reproducible(tier):
+    levels = np.arange(10) / 9
+    for n in ("CLOUD_FRACTION", "CLOUD_LOW", "CLOUD_MIDDLE", "CLOUD_HIGH"):
+        v = np.unique(tier[n])
+        assert np.allclose(v, levels[np.searchsorted(levels, v - 1e-6)], atol=1e-6), n
+        assert len(v) == 10
+    lf = tier["LAND_FRACTION"][::4, ::4]                   # a small grid: a quick regeneration
+    a = D.cloud_fraction_maps(lf, seed=7)
+    b = D.cloud_fraction_maps(lf, seed=7)
+    c = D.cloud_fraction_maps(lf, seed=8)
+    assert all(np.array_equal(a[k], b[k]) for k in a)
+    assert not np.array_equal(a["total"], c["total"])
+    full = D.cloud_fraction_maps(tier["LAND_FRACTION"])
+    assert np.array_equal(full["total"], tier["CLOUD_FRACTION"])   # the cached map is the default seed's
+
+
+def test_cloud_cover_matches_the_satellite_climatology(tier):
+    tot, lm = tier["CLOUD_FRACTION"], tier["LAND_MASK"]
+    assert area_weighted_mean(tot) == pytest.approx(0.68, abs=0.03)
+    land, ocean = area_weighted_mean(tot, lm == 1), area_weighted_mean(tot, lm == 0)
+    assert 0.50 < land < 0.63 and 0.67 < ocean < 0.75
+
+
+def test_cloud_generator_keeps_its_climatology_zone_by_zone(tier):
+    lf = tier["LAND_FRACTION"]
+    m = D.cloud_fraction_maps(lf, seed=11, levels=None)
+    la = cell_centres(360)[0]
+    w = cell_areas_km2(360)
+    for layer in ("low", "middle", "high"):
+        f = D.cloud_climatology(layer, lf)
+        for z0 in range(-90, 90, 10):
+            rows = (la >= z0) & (la < z0 + 10)
+            got = (m[layer][rows].mean(axis=1) * w[rows]).sum() / w[rows].sum()
+            want = (f[rows].mean(axis=1) * w[rows]).sum() / w[rows].sum()
+            assert got == pytest.approx(want, abs=0.05), (layer, z0)
+        assert area_weighted_mean(m[layer]) == pytest.approx(area_weighted_mean(f), abs=0.01), layer
+
+
+def test_random_field_correlation_length():
+    rng = np.random.Generator(np.random.PCG64(3))
+    ell = 800.0
+    nlat = 180
+    zs = [D.gaussian_random_field(nlat, ell, rng) for _ in range(4)]
+    # rows near the equator: cells dq apart in longitude are a chord 2 R cos(lat) sin(dq d / 2) apart
+    la = cell_centres(nlat)[0]
+    rows = np.abs(la) < 10
+    dlon = math.radians(360.0 / (2 * nlat))
+    for target in (0.5 * ell, ell, 1.5 * ell):
+        dq = int(round(2 * math.asin(target / (2 * 6371.0)) / dlon))
+        num = den = 0.0
+        for z in zs:
+            zr = z[rows]
+            num += (zr * np.roll(zr, dq, axis=1)).sum()
+            den += (zr * zr).sum()
+        chord = 2 * 6371.0 * np.mean(np.cos(np.radians(la[rows]))) * math.sin(dq * dlon / 2)
+        assert num / den == pytest.approx(math.exp(-chord ** 2 / (2 * ell ** 2)), abs=0.06), target
+    z = np.concatenate([v.ravel() for v in zs])
+    assert z.mean() == pytest.approx(0.0, abs=0.15) and z.std() == pytest.approx(1.0, abs=0.1)
+
+
+# ---------------------------------------------------------------- MAP ... LATLON DEFAULT in a script
+HEAD = "UNITS KM\nWAVELENGTHS 550 NM\nSEED 4\nMODEL dark LAMBERTIAN 0.1\nMODEL white LAMBERTIAN 0.9\n"
+EARTH = "SURFACE\n  SPHERE 0 0 0 6371\nOBJECT earth\n  INTERFACE ABSORB\n"
+BEAM = ("GRID RECT X 20000 -6380 6380 -6380 6380 {n} 1 RANDOM\nSOURCE DIRECTION -1 0 0\nFLUX TOTAL 1 W\n"
+        "LEVEL 10\nHALT 0\nTRACE\n")
+
+
+def _pack_error(tmp_path, text):
+    from irtlang.lang.diagnostics import IrtError
+    from _trace_util import trace_text
+
+    with pytest.raises(IrtError) as e:
+        trace_text(tmp_path, text)
+    return str(e.value)
+
+
+def test_a_default_dataset_the_tier_lacks_is_an_error(tmp_path):
+    msg = _pack_error(tmp_path, HEAD + "MAP relief LATLON DEFAULT ELEVATION\n" + EARTH
+                      + "  SCATTER MAP relief MODELS dark white\n" + BEAM.format(n=100))
+    assert "ELEVATION" in msg and "relief grid" in msg
+
+
+def test_a_default_class_map_needs_a_model_per_class(tmp_path):
+    msg = _pack_error(tmp_path, HEAD + "MAP cover LATLON DEFAULT LANDCOVER\n" + EARTH
+                      + "  SCATTER MAP cover MODELS dark white\n" + BEAM.format(n=100))
+    assert "map cover has 17 classes but MODELS names 2" in msg
+
+
+def test_default_land_mask_in_a_traced_scene(tmp_path):
+    """Sun over (0 N, 0 E): hits are uniform over the projected disk.  The expected share of land is sampled
+    from the 1 km GLOBE mask directly; the traced share (class 1 -> white 0.9, 0 -> dark 0.1) must agree within
+    the Monte Carlo error plus the 0.5 deg resampling (about 0.005 for this view)."""
+    gm = pytest.importorskip("global_land_mask.globe")
+    from _trace_util import INC, SCA, row, trace_text
+
+    n = 300_000
+    res = trace_text(tmp_path, HEAD + "MAP land LATLON DEFAULT LAND_MASK\n" + EARTH
+                     + "  SCATTER MAP land MODELS dark white\n" + BEAM.format(n=n))
+    r = row(res, "earth")
+    a = r[SCA] / r[INC]
+    n_hit = int(round(r[INC] * n / row(res, "EMITTED")[INC]))
+    share = (a - 0.1) / 0.8
+    # expected: points uniform on the disk x = 0 facing +x, i.e. (y, z) uniform in the unit disk
+    rng = np.random.default_rng(9)
+    y, z = rng.uniform(-1, 1, (2, 400_000))
+    keep = y * y + z * z < 1
+    y, z = y[keep], z[keep]
+    x = np.sqrt(1 - y * y - z * z)
+    want = np.mean(gm.is_land(np.degrees(np.arcsin(z)), np.degrees(np.arctan2(y, x))))
+    sigma = math.sqrt(want * (1 - want) / n_hit) + math.sqrt(want * (1 - want) / keep.sum())
+    assert share == pytest.approx(want, abs=5 * sigma + 0.006)
+
+
+# ---------------------------------------------------------------- a build from scratch
+@pytest.mark.slow
+def test_build_from_scratch_into_a_folder(tmp_path):
+    paths = D.build_default_tier(tmp_path, ["LAND_MASK", "SEA_ICE_FRACTION"])
+    assert set(paths) == {"LAND_MASK", "SEA_ICE_FRACTION"}
+    for n in ("LAND_FRACTION", "LAND_MASK", "LANDCOVER", "SEA_ICE_FRACTION"):
+        assert (tmp_path / f"{n}.npy").exists()
+        info = json.loads((tmp_path / f"{n}.json").read_text())
+        assert info["tier"] == "default" and info["dataset"] == n
+    assert np.array_equal(np.load(paths["LAND_MASK"]), D.load_dataset("LAND_MASK"))
+    before = (tmp_path / "LAND_MASK.npy").stat().st_mtime_ns
+    D.ensure("LAND_MASK", tmp_path)                      # current: not rebuilt
+    assert (tmp_path / "LAND_MASK.npy").stat().st_mtime_ns == before
