@@ -168,7 +168,8 @@ def report(r: dict) -> str:
         f"Figure-of-merit ratio TOWARD / brute force: **{r['ratio']:.1f}x**.  The ring's expectation is the mean "
         f"intensity over its bin, {r['ring_mean']:.6f} W/sr ({r['bin_bias_rel'] * 100:+.3f} % from the value at "
         f"{r['alpha_deg']} deg); the same ring in the TOWARD run gave {r['brute_in_toward_run']:.6f} +/- "
-        f"{r['brute_in_toward_run_se']:.6f}.  Brute force on the 10 m detector itself (no TOWARD) collected "
+        f"{r['brute_in_toward_run_se']:.6f} (the same paths: random numbers are counted per ray and event, and the "
+        "rays sent toward the detector draw their own).  Brute force on the 10 m detector itself (no TOWARD) collected "
         f"{r['brute_hits_det']:.3g} W: at {r['omega_det']:.2g} sr a hit is a one-in-a-million event.",
         "",
     ])

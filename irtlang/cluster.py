@@ -32,6 +32,8 @@ import weakref
 from collections import OrderedDict, deque
 from concurrent.futures import CancelledError
 
+import numpy as np
+
 DEFAULT_TIMEOUT = 5.0
 _CONTEXTS_KEPT = 3
 
@@ -157,6 +159,11 @@ def trace_unit(pk, key: str, opts: tuple, first: int, n: int, version: str | Non
     with _lock:
         t = _worker_context(pk, key, opts).run_batch(first, n)
         _units_traced += 1
+    # send only the used part of each chunk's deposit list (the reduction reads dep_n[c] entries of row c)
+    used = max(1, int(t.dep_n.max())) if len(t.dep_n) else 1
+    if used < t.dep_idx.shape[1]:
+        t.dep_idx = np.ascontiguousarray(t.dep_idx[:, :used])
+        t.dep_w = np.ascontiguousarray(t.dep_w[:, :used])
     return t
 
 

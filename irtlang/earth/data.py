@@ -10,8 +10,8 @@ LATLON convention of ``irtlang.earth.latlon`` (rows from +90 down, columns from 
 |---|---|---|---|
 | LAND_MASK | uint8: 0 water, 1 land (land share of the cell >= 1/2) | GLOBE 30" land/sea mask via the PyPI package global-land-mask | no |
 | LAND_FRACTION | float32 land share of the cell (Python only) | same | no |
-| LANDCOVER | uint8 classes: 0 water, 1-16 IGBP (MCD12C1 Type 1 legend) | rules on land mask, latitude, continentality and named regions | **yes** |
-| SNOW_FRACTION | float32 [0, 1], March | latitude ramp over land, ice sheets 1 | **yes** |
+| LANDCOVER | uint8 classes: 0 water, 1-16 IGBP (MCD12C1 Type 1 legend) | latitude belts and hand-drawn regions on the land mask | **yes** |
+| SNOW_FRACTION | float32 [0, 1], March | latitude ramp over land set by continentality, ice sheets 1 | **yes** |
 | SEA_ICE_FRACTION | float32 [0, 1], March | ice edge by longitude sector, enclosed seas | **yes** |
 | CLOUD_FRACTION | float32, 10 levels 0, 1/9 .. 1, total (random overlap of the three layers) | seeded generator, zonal climatology | **yes** |
 | CLOUD_LOW, CLOUD_MIDDLE, CLOUD_HIGH | float32, 10 levels, per layer | same | **yes** |
@@ -411,7 +411,7 @@ def _is_current(name: str, cache_dir, prm) -> bool:
 def _check_name(name: str) -> str:
     n = name.upper()
     if n in UNAVAILABLE:
-        raise DatasetUnavailable(f"{n}: {UNAVAILABLE[n]}")
+        raise DatasetUnavailable(UNAVAILABLE[n])
     if n not in DATASETS:
         raise DatasetUnavailable(f"unknown dataset {name!r}; the default tier has: {', '.join(DATASETS)}")
     return n

@@ -29,6 +29,8 @@ from __future__ import annotations
 import json
 import math
 import os
+from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 
@@ -67,10 +69,16 @@ def _extract_from_pvlib() -> dict:
 
 def spectrl2_coefficients(cache_dir=None) -> dict:
     """The SPCTRAL2 table as numpy arrays (cached in the default data tier at first use)."""
-    from ..io.atomic import atomic_path
     from .data import data_dir
 
-    p = data_dir(cache_dir) / GAS_FILE
+    return dict(_coefficients(str(data_dir(cache_dir) / GAS_FILE)))
+
+
+@lru_cache(maxsize=4)
+def _coefficients(path: str) -> dict:
+    from ..io.atomic import atomic_path
+
+    p = Path(path)
     d = None
     if p.exists():
         d = json.loads(p.read_text())
@@ -102,11 +110,15 @@ def transmittances(wavelength_nm=None, *, airmass: float = 1.0, ozone_atm_cm: fl
     return t
 
 
+def _trapezoid(y, x):
+    return float(np.sum(0.5 * (y[1:] + y[:-1]) * np.diff(x)))
+
+
 def _band_average(w, y, weight, lo, hi):
     grid = np.concatenate([[lo], w[(w > lo) & (w < hi)], [hi]])
     yy = np.interp(grid, w, y) * np.interp(grid, w, weight)
     ww = np.interp(grid, w, weight)
-    return np.trapezoid(yy, grid) / np.trapezoid(ww, grid)
+    return _trapezoid(yy, grid) / _trapezoid(ww, grid)
 
 
 def band_transmittance(band_nm: tuple, **kw) -> dict:

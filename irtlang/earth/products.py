@@ -303,8 +303,9 @@ def _grid_index(x, y, g):
     return row, col
 
 
-def read_amsre_seaice(path, nlat: int = 360) -> LatLonGrid:
-    """AE_SI12 daily sea-ice concentration, both hemispheres, as a global fraction grid of nlat rows.
+def read_amsre_seaice(path, nlat: int = 360, kind: str = "DAY") -> LatLonGrid:
+    """AE_SI12 daily sea-ice concentration, both hemispheres, as a global fraction grid of nlat rows.  kind: the
+    field read, DAY (the daily average, SI_12km_NH_ICECON_DAY ...), ASC or DSC (ascending / descending passes).
 
     Each output cell averages the 12.5 km cells whose centres fall in it (cells of the polar grid are located
     by the inverse projection); cells no polar cell falls in take the polar cell under their centre.  Land
@@ -313,7 +314,13 @@ def read_amsre_seaice(path, nlat: int = 360) -> LatLonGrid:
     path = Path(path)
     out = np.zeros((nlat, 2 * nlat))
     lat_c, lon_c = cell_centres(nlat)
+    kind = kind.upper()
+    if kind not in ("DAY", "ASC", "DSC"):
+        raise ValueError(f"AE_SI12 field {kind!r}: give DAY, ASC or DSC")
+    names = []
     for hemi, g in POLAR_GRIDS.items():
+        g = {**g, "dataset": g["dataset"].replace("_DAY", "_" + kind)}
+        names.append(g["dataset"])
         raw, attrs = read_dataset(path, g["dataset"])
         if raw.ndim == 3 and raw.shape[0] == 1:
             raw = raw[0]
@@ -350,7 +357,7 @@ def read_amsre_seaice(path, nlat: int = 360) -> LatLonGrid:
         half[has] = s[has] / n[has]
         out[side] = half[side]
     return LatLonGrid(np.clip(out, 0, 1).astype(np.float32), "AE_SI12 sea-ice concentration", "1",
-                      _meta(path, "AE_SI12", [g["dataset"] for g in POLAR_GRIDS.values()],
+                      _meta(path, "AE_SI12", names,
                             projection="NSIDC polar stereographic 12.5 km, Hughes 1980 ellipsoid, true at 70 deg"))
 
 

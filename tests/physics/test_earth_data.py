@@ -106,6 +106,7 @@ def test_the_land_mask_knows_where_the_land_is(tier, place):
     assert LatLonGrid(tier["LAND_MASK"], "m").value_at(la, lo) == land
 
 
+@pytest.mark.slow
 def test_land_mask_agrees_with_its_one_km_source(tier):
     gm = pytest.importorskip("global_land_mask.globe")
     rng = np.random.default_rng(5)
@@ -179,8 +180,14 @@ def test_cloud_maps_have_ten_levels_and_are_reproducible(tier):
     c = D.cloud_fraction_maps(lf, seed=8)
     assert all(np.array_equal(a[k], b[k]) for k in a)
     assert not np.array_equal(a["total"], c["total"])
+
+
+@pytest.mark.slow
+def test_the_cached_cloud_maps_are_the_default_seeds(tier):
     full = D.cloud_fraction_maps(tier["LAND_FRACTION"])
-    assert np.array_equal(full["total"], tier["CLOUD_FRACTION"])   # the cached map is the default seed's
+    for k in ("low", "middle", "high"):
+        assert np.array_equal(full[k], tier["CLOUD_" + k.upper()])
+    assert np.array_equal(full["total"], tier["CLOUD_FRACTION"])
 
 
 def test_cloud_cover_matches_the_satellite_climatology(tier):
@@ -191,10 +198,10 @@ def test_cloud_cover_matches_the_satellite_climatology(tier):
 
 
 def test_cloud_generator_keeps_its_climatology_zone_by_zone(tier):
-    lf = tier["LAND_FRACTION"]
+    lf = tier["LAND_FRACTION"].reshape(180, 2, 360, 2).mean(axis=(1, 3))     # 1 deg: quicker
     m = D.cloud_fraction_maps(lf, seed=11, levels=None)
-    la = cell_centres(360)[0]
-    w = cell_areas_km2(360)
+    la = cell_centres(180)[0]
+    w = cell_areas_km2(180)
     for layer in ("low", "middle", "high"):
         f = D.cloud_climatology(layer, lf)
         for z0 in range(-90, 90, 10):
@@ -255,28 +262,46 @@ def test_a_default_class_map_needs_a_model_per_class(tmp_path):
     assert "map cover has 17 classes but MODELS names 2" in msg
 
 
-def test_default_land_mask_in_a_traced_scene(tmp_path):
-    """Sun over (0 N, 0 E): hits are uniform over the projected disk.  The expected share of land is sampled
-    from the 1 km GLOBE mask directly; the traced share (class 1 -> white 0.9, 0 -> dark 0.1) must agree within
-    the Monte Carlo error plus the 0.5 deg resampling (about 0.005 for this view)."""
-    gm = pytest.importorskip("global_land_mask.globe")
-    from _trace_util import INC, SCA, row, trace_text
-
-    n = 300_000
-    res = trace_text(tmp_path, HEAD + "MAP land LATLON DEFAULT LAND_MASK\n" + EARTH
-                     + "  SCATTER MAP land MODELS dark white\n" + BEAM.format(n=n))
-    r = row(res, "earth")
-    a = r[SCA] / r[INC]
-    n_hit = int(round(r[INC] * n / row(res, "EMITTED")[INC]))
-    share = (a - 0.1) / 0.8
-    # expected: points uniform on the disk x = 0 facing +x, i.e. (y, z) uniform in the unit disk
-    rng = np.random.default_rng(9)
-    y, z = rng.uniform(-1, 1, (2, 400_000))
+def _disk_points(n, seed=9):
+    """Points uniform on the projected disk of a unit sphere seen from +x: (lat, lon) in deg."""
+    rng = np.random.default_rng(seed)
+    y, z = rng.uniform(-1, 1, (2, n))
     keep = y * y + z * z < 1
     y, z = y[keep], z[keep]
     x = np.sqrt(1 - y * y - z * z)
-    want = np.mean(gm.is_land(np.degrees(np.arcsin(z)), np.degrees(np.arctan2(y, x))))
-    sigma = math.sqrt(want * (1 - want) / n_hit) + math.sqrt(want * (1 - want) / keep.sum())
+    return np.degrees(np.arcsin(z)), np.degrees(np.arctan2(y, x))
+
+
+def _traced_land_share(tmp_path, n):
+    from _trace_util import INC, SCA, row, trace_text
+
+    res = trace_text(tmp_path, HEAD + "MAP land LATLON DEFAULT LAND_MASK\n" + EARTH
+                     + "  SCATTER MAP land MODELS dark white\n" + BEAM.format(n=n))
+    r = row(res, "earth")
+    n_hit = int(round(r[INC] * n / row(res, "EMITTED")[INC]))
+    return (r[SCA] / r[INC] - 0.1) / 0.8, n_hit
+
+
+def test_default_land_mask_in_a_traced_scene(tier, tmp_path):
+    """Sun over (0 N, 0 E): hits are uniform over the projected disk, so the share of them on land (class 1 ->
+    white 0.9, class 0 -> dark 0.1) is the disk-weighted land share: sampled here from LAND_FRACTION (the
+    cell's land share, not the thresholded mask; they differ by about 0.005 for this view)."""
+    share, n_hit = _traced_land_share(tmp_path, 200_000)
+    la, lo = _disk_points(400_000)
+    g = LatLonGrid(tier["LAND_FRACTION"], "f")
+    want = float(np.mean([g.value_at(a, b) for a, b in zip(la[:100_000], lo[:100_000])]))
+    sigma = math.sqrt(want * (1 - want) / n_hit)
+    assert share == pytest.approx(want, abs=5 * sigma + 0.008)
+
+
+@pytest.mark.slow
+def test_default_land_mask_against_the_one_km_mask(tmp_path):
+    """The same, against the 1 km GLOBE mask sampled directly at the disk points."""
+    gm = pytest.importorskip("global_land_mask.globe")
+    share, n_hit = _traced_land_share(tmp_path, 400_000)
+    la, lo = _disk_points(400_000)
+    want = float(np.mean(gm.is_land(la, lo)))
+    sigma = math.sqrt(want * (1 - want) / n_hit) + math.sqrt(want * (1 - want) / la.size)
     assert share == pytest.approx(want, abs=5 * sigma + 0.006)
 
 

@@ -103,7 +103,6 @@ _CHILD = textwrap.dedent("""
 """)
 
 
-@pytest.mark.slow
 def test_thread_count_in_fresh_processes(scene):
     """The same with NUMBA_NUM_THREADS set before numba starts, in two fresh interpreters."""
     digests = []

@@ -1,0 +1,102 @@
+"""The Earth model as script text (irtlang.earth.models): the include files parse, and their numbers are the
+physics modules' numbers.
+
+* Atmosphere: each layer's TAU is the Rayleigh optical depth (Bodhaine et al. 1999 eq. 30 times the layer's
+  pressure share, USSA 1976) plus the gas absorption; summed over the layers at 550 nm the Rayleigh part is the
+  column 0.097065 (ORACLES.md) times (1 - p(100 km)/p0); ALBEDO is the Rayleigh share.
+* A whole Earth with the generated models traced (slow): the ledger closes, and the disk albedo with no
+  atmosphere lies between the ocean's and the land's.
+"""
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from irtlang.earth import gas, models
+from irtlang.earth.atmosphere import P0, ussa1976
+from irtlang.lang.interp import check_file
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+BANDS = (350.0, 450.0, 550.0, 650.0, 750.0, 850.0, 950.0)
+
+
+def _values(line, key):
+    toks = line.split()
+    i = toks.index(key)
+    out = []
+    for t in toks[i + 1:]:
+        try:
+            out.append(float(t))
+        except ValueError:
+            break
+    return np.array(out)
+
+
+def test_atmosphere_layers_are_rayleigh_plus_gas():
+    lines = models.atmosphere_layer_lines(BANDS)
+    assert len(lines) == len(models.PAPER_LEVELS_KM) - 1 == 15
+    tau = np.array([_values(l, "TAU") for l in lines])
+    alb = np.array([_values(l, "ALBEDO") for l in lines])
+    t_r = tau * alb
+    frac = 1 - ussa1976(100e3)[1] / P0
+    assert t_r[:, 2].sum() == pytest.approx(0.097065 * frac, abs=2e-6)
+    absorb = gas.layer_absorption(models.PAPER_LEVELS_KM, BANDS)["total"]
+    assert np.all(np.abs((tau - t_r) - absorb) <= 2e-6 * tau)     # the lines print 6 significant digits
+    assert np.all((alb > 0) & (alb <= 1))
+    assert alb[0, 1] > 0.99 and alb[0, 6] < 0.5                 # 450 nm clear, 950 nm water band near the ground
+    no_gas = models.atmosphere_layer_lines(BANDS, gas_absorption=False)
+    assert all(np.all(_values(l, "ALBEDO") == 1) for l in no_gas)
+
+
+def test_cloud_and_aerosol_lines():
+    c = models.cloud_lines(BANDS)
+    assert [l.split()[1] for l in c] == ["cloud_low", "cloud_middle", "cloud_high"]
+    t550 = [_values(l, "TAU")[2] for l in c]
+    assert 10 < t550[0] < 25 and 3 < t550[1] < 15 and 0.3 < t550[2] < 3
+    a = models.aerosol_lines(BANDS)
+    n_layers = sum(1 for z in models.PAPER_LEVELS_KM if z <= 12.0) - 1
+    assert len(a) == 5 * n_layers
+    assert a[0].startswith("MODEL aer_maritime_clean_1 HG")
+
+
+def test_include_files_make_a_valid_earth_script(tmp_path):
+    paths = models.write_earth_includes(tmp_path, BANDS)
+    assert set(paths) == {"earth_surfaces.inr", "earth_atmosphere.inr", "earth_clouds.inr", "earth_aerosols.inr",
+                          "earth_maps.inr"}
+    for layer in ("low", "middle", "high"):
+        assert (tmp_path / f"cloud_{layer}.npy").exists() and (tmp_path / f"cloud_{layer}.json").exists()
+    script = tmp_path / "earth_check.inr"
+    script.write_text("UNITS KM\nWAVELENGTHS 350 450 550 650 750 850 950 NM\n"
+                      + "".join(f"INCLUDE '{n}'\n" for n in paths)
+                      + "SURFACE\n  SPHERE 0 0 0 6371\nOBJECT earth\n  INTERFACE ABSORB\n"
+                      + "  SCATTER MAP snow MODELS snow\n  SCATTER MAP seaice MODELS sea_ice\n"
+                      + "  SCATTER MAP cover MODELS " + " ".join(models.surfaces.IGBP_MODEL_NAMES) + "\n"
+                      + "SURFACE\n  SPHERE 0 0 0 6372\nOBJECT low_clouds\n  INTERFACE TRANSMIT AIR AIR\n"
+                      + "  SCATTER MAP cloud_low MODELS cloud_low\n"
+                      + "SURFACE\n  SPHERE 0 0 0 6372.5\nOBJECT air_1\n  INTERFACE TRANSMIT AIR AIR\n"
+                      + "  SCATTER MODEL air_1\n")
+    it = check_file(script)
+    assert not it.diags.items, [d.render() for d in it.diags.items]
+    assert "CLOUD_LOW" in it.state.maps and it.state.maps["COVER"].dataset == "LANDCOVER"
+
+
+@pytest.mark.slow
+def test_a_traced_earth_with_the_generated_models(tmp_path):
+    from _trace_util import INC, SCA, ledger_gap, row, trace_text
+    from irtlang.earth.surfaces import scatter_map_line
+
+    models.write_earth_includes(tmp_path, BANDS)
+    res = trace_text(tmp_path, "UNITS KM\nWAVELENGTHS 350 450 550 650 750 850 950 NM\nSEED 3\n"
+                     "INCLUDE 'earth_surfaces.inr'\nINCLUDE 'earth_maps.inr'\n"
+                     "SURFACE\n  SPHERE 0 0 0 6371\nOBJECT earth\n  INTERFACE ABSORB\n"
+                     "  SCATTER MAP snow MODELS snow\n  SCATTER MAP seaice MODELS sea_ice\n  " + scatter_map_line()
+                     + "\nGRID RECT X 20000 -6400 6400 -6400 6400 40000 1 RANDOM\nSOURCE DIRECTION -1 0 0\n"
+                     "FLUX TOTAL 1 W\nLEVEL 10\nHALT 0\nTRACE\n")
+    assert ledger_gap(res) < 1e-12
+    names = [n.upper() for n in res.rows]
+    led = res.ledger[names.index("EARTH")]
+    alb = led[SCA] / led[INC]
+    assert np.all(alb > 0.03) and np.all(alb < 0.35)
+    assert alb[5] > alb[3]                       # the red edge of the land shows in the disk (Africa, Europe)
