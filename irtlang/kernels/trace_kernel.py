@@ -1013,15 +1013,15 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
             if ndep <= cap:
                 # one deposit per pixel and source ray (reduce_batch squares each deposit)
                 kk = dep0
-                for a in range(dep0, ndep):
-                    b_ = dep0
-                    while b_ < kk and dep_idx[c, b_] != dep_idx[c, a]:
-                        b_ += 1
-                    if b_ < kk:
-                        dep_w[c, b_] += dep_w[c, a]
+                for qa in range(dep0, ndep):
+                    qb = dep0
+                    while qb < kk and dep_idx[c, qb] != dep_idx[c, qa]:
+                        qb += 1
+                    if qb < kk:
+                        dep_w[c, qb] += dep_w[c, qa]
                     else:
-                        dep_idx[c, kk] = dep_idx[c, a]
-                        dep_w[c, kk] = dep_w[c, a]
+                        dep_idx[c, kk] = dep_idx[c, qa]
+                        dep_w[c, kk] = dep_w[c, qa]
                         kk += 1
                 ndep = kk
         dep_n[c] = ndep if ndep <= cap else -1

@@ -81,6 +81,9 @@ def run_psf(eng, step, interp):
     name = sc.objects[key].name
     m = eng._selected(step, "PSF", obj_filter=key)
     r = res.records
+    if "opl" not in r or "start" not in r or not hasattr(pk, "src_kind"):
+        raise RuntimeFailure(step.span, "PSF needs the ray records of a TRACE (optical paths and pupil positions); "
+                                        "rays read by LOAD RAYS do not carry them")
     m &= (r["flags"] & FL_SCATTERED) == 0
     if not m.any():
         raise RuntimeFailure(step.span, f"PSF: no unscattered ray of the last TRACE ended on {name}")

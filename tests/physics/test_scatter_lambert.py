@@ -171,3 +171,50 @@ def test_importance_agrees_with_brute_force(tmp_path):
     plate = row(res, "plate")
     assert plate[INC] == pytest.approx(1.0, rel=1e-12)           # the grid lies inside the plate
     assert plate[SCA] == pytest.approx(0.8, rel=1e-12)
+
+
+
+def test_rays_toward_a_target_are_one_sample_per_source_ray(tmp_path):
+    """SCATTER ... RAYS n TOWARD: the n rays one hit sends are n draws of one sample, and the standard error
+    must square their total per source ray.  On the Lambert sphere the detector subtends 1e-3 rad, so the n
+    rays from one point carry almost the same weight (f cos Omega / n, cos varying by < 1e-3 across the cone):
+    the error with RAYS 4 equals RAYS 1's to that spread (squaring each ray alone would halve it)."""
+    n = 300_000
+    r1 = trace_text(tmp_path, sphere_script(57.7, n, seed=4), records=False)
+    r4 = trace_text(tmp_path, sphere_script(57.7, n, seed=4).replace("TOWARD det", "RAYS 4 TOWARD det"), records=False)
+    (f1, s1), (f4, s4) = r1.flux_on(1), r4.flux_on(1)
+    assert abs(s4 / s1 - 1.0) < 0.01, (s4, s1)
+    assert abs(f4 - f1) <= 0.01 * s1              # the same hit points (the same source random numbers)
+    assert ledger_gap(r4) < 1e-12
+
+
+def test_detector_image_squares_are_per_source_ray(tmp_path):
+    """RAYS 4 TOWARD a one-pixel detector (its pixel holds the whole disk): the pixel's sum of squares and the
+    object's (ledger_sq) are both sums over source rays of the squared flux each brought, so they agree to
+    rounding (the pixel's deposits of one source ray are merged before squaring)."""
+    text = """UNITS MM
+WAVELENGTHS 550 NM
+SEED 8
+MODEL paint LAMBERTIAN 0.5
+SURFACE
+  PLANE Z 0 DISK 100
+OBJECT plate
+  INTERFACE ABSORB
+  SCATTER MODEL paint RAYS 4 TOWARD det
+SURFACE
+  PLANE Z 500 DISK 50
+OBJECT det
+  INTERFACE ABSORB
+  DETECTOR PIXELS 1 1
+GRID DISK Z 10 100 RAYS 100000 RANDOM
+SOURCE DIRECTION 0 0 -1
+FLUX TOTAL 1 W
+LEVEL 10
+HALT 0
+TRACE
+"""
+    res = trace_text(tmp_path, text, records=False)
+    img, img_sq = res.images["det"]
+    assert img.sum() == pytest.approx(res.ledger[1, 0].sum(), rel=1e-12)
+    assert img_sq.sum() == pytest.approx(res.ledger_sq[1].sum(), rel=1e-12)
+    assert ledger_gap(res) < 1e-12
