@@ -92,13 +92,16 @@ def load_array(spec):
 
 
 def load_image(spec):
-    """2-D image from a file (see :func:`load_array`); a cube (L, H, W) from a ray file is summed over lines.
+    """2-D image from a file (see :func:`load_array`); a cube (L, H, W) from a ray file is summed over lines, and a
+    one-line cube (1, H, W), as irtlang's EXPORT writes for one wavelength line, is that line.
 
     Signature: ``load_image(spec) -> (H, W) float array``.
     """
     arr = np.asarray(load_array(spec), dtype=np.float64)
     if arr.ndim == 3 and _split_spec(spec)[0].suffix.lower() in _RAY_SUFFIXES:
         arr = arr.sum(axis=0)
+    elif arr.ndim == 3 and arr.shape[0] == 1:
+        arr = arr[0]
     if arr.ndim != 2:
         raise AnalysisError(f"{spec}: expected a 2-D image, got shape {arr.shape}")
     return arr

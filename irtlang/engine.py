@@ -393,6 +393,42 @@ class Engine:
         self.scene = step.scene
         self.out(f"LOAD RAYS: {rf.n_rays:,} rays from {Path(step.params['file']).name}")
 
+    def do_analyze(self, step, interp):
+        """Run an analysis subcommand; file names resolve in the run folder first, then the script's folder."""
+        import contextlib
+        import io as _io
+
+        from analysis import cli as acli
+        from .lang.commands import _PATH_OPTIONS, analysis_parser
+
+        argv, written = [], []
+        raw = list(step.params["argv"])
+        for k, a in enumerate(raw):
+            if not a.startswith("\0path:"):
+                argv.append(a)
+                continue
+            name = a[len("\0path:"):]
+            out = self.folder.output(name)
+            if k > 0 and raw[k - 1] in _PATH_OPTIONS and raw[k - 1] in ("--output", "--plot"):
+                out.parent.mkdir(parents=True, exist_ok=True)
+                written.append(out)
+                argv.append(str(out))
+            elif out.exists():
+                argv.append(str(out))
+            else:
+                p = Path(step.params["base"]) / name
+                argv.append(str(p if p.exists() else name))
+        args = analysis_parser().parse_args(argv)
+        buf, err = _io.StringIO(), _io.StringIO()
+        with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(err):
+            code = acli.run(args)
+        if code != 0:
+            raise RuntimeFailure(step.span, f"ANALYZE {argv[0].upper()}: {err.getvalue().strip().removeprefix('error: ')}")
+        self.out(f"ANALYZE {argv[0].upper()}:\n" + buf.getvalue().rstrip())
+        for w in written:
+            if w.exists():
+                self.folder.record(w, "analysis")
+
     # ------------------------------------------------------------------ files
     def _write_text(self, rel, text, kind):
         from .io.atomic import write_text

@@ -823,3 +823,48 @@ def _psf(it, b, st):
         it.assign(var, Quantity(0.0, LENGTH), b.span)
     it.assign("PSF_STREHL", Quantity(0.0, NONE), b.span)
     it.step("PSF", {"file": f, "object": b.get("object"), "pad": b.get("pad"), "size": b.get("size")}, b.span)
+
+
+ANALYSES = ("RGB", "PSF", "MTF", "ESF", "DEFOCUS", "DISK", "SPECTRUM")
+_PATH_OPTIONS = ("--output", "--plot", "--reference", "--mask", "--wavelengths")
+
+
+def analysis_argv(it, what: str, items) -> list:
+    """The `irt analyze` argument list of an ANALYZE command: a word is an option (PIXEL_PITCH ->
+    --pixel-pitch), a quoted string a file name or text, anything else a value (in the script's units)."""
+    argv = [what.lower()]
+    for item in items:
+        if isinstance(item, A.Word) and not it.is_variable(item.name):
+            argv.append("--" + item.name.lower().replace("_", "-"))
+        elif isinstance(item, A.Str):
+            argv.append(("\0path:" + it.string(item)))
+        else:
+            v = evaluate(item, it.env)
+            argv.append(v if isinstance(v, str) else format_value(v, it.env))
+    return argv
+
+
+def analysis_parser():
+    import argparse
+
+    from analysis import cli as acli
+
+    class _Parser(argparse.ArgumentParser):
+        def error(self, message):  # report, don't exit
+            raise ValueError(message)
+
+    p = _Parser(prog="ANALYZE", add_help=False)
+    acli.build_parser(p.add_subparsers(dest="analysis_cmd", parser_class=_Parser))
+    return p
+
+
+@command("ANALYZE", Form((Choice("what", ANALYSES), Rest("args"))), "analysis",
+         "run an analysis of the analysis package (irt analyze) on files: ANALYZE PSF 'fpa.npy' PIXEL_PITCH 0.021")
+def _analyze(it, b, st):
+    argv = analysis_argv(it, b["what"], b["args"])
+    try:  # validate the arguments now, as `irt analyze` would
+        analysis_parser().parse_args([a.replace("\0path:", "") for a in argv])
+    except ValueError as e:
+        raise error(b.span, f"ANALYZE {b['what']}: {e}", f"see `irt analyze {b['what'].lower()} --help`") from None
+    it.step("ANALYZE", {"argv": tuple(argv), "base": str(it.include_stack[-1].parent if it.include_stack else it.base_dir)},
+            b.span, with_scene=False)

@@ -24,7 +24,7 @@ import pytest
 from scipy.special import j0, j1
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _instrument import EFL, MM, UM, trace_instrument  # noqa: E402
+from _instrument import EFL, UM, trace_instrument  # noqa: E402
 from _trace_util import trace_text  # noqa: E402
 
 from irtlang.optics import diffraction as D
