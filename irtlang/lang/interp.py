@@ -172,8 +172,6 @@ class Interpreter(BindContext):
         k = name.upper()
         if k in CONSTANTS:
             raise error(span, f"{name} is a constant and cannot be assigned")
-        if k in self.commands and k not in ("E",):
-            pass  # a variable may share a command's name: statements start with the command, values do not
         for fr in reversed(self.frames):
             if k in fr:
                 fr[k] = (name, value)
