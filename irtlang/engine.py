@@ -399,7 +399,7 @@ class Engine:
         import io as _io
 
         from analysis import cli as acli
-        from .lang.commands import _PATH_OPTIONS, analysis_parser
+        from .lang.commands import analysis_parser
 
         argv, written = [], []
         raw = list(step.params["argv"])
@@ -409,7 +409,7 @@ class Engine:
                 continue
             name = a[len("\0path:"):]
             out = self.folder.output(name)
-            if k > 0 and raw[k - 1] in _PATH_OPTIONS and raw[k - 1] in ("--output", "--plot"):
+            if k > 0 and raw[k - 1] in ("--output", "--plot"):
                 out.parent.mkdir(parents=True, exist_ok=True)
                 written.append(out)
                 argv.append(str(out))

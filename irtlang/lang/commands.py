@@ -58,12 +58,17 @@ def _include(it, b, st):
 
 @command("PRINT", Form((Rest("items"),)), "control", "print strings ({expr} interpolated) and values")
 def _print(it, b, st):
+    it.print(_message(it, b["items"]))
+
+
+def _message(it, items) -> str:
+    """PRINT and ERROR: strings ({expr} interpolated) and values in the script's units, joined by spaces."""
     parts = []
-    for item in b["items"]:
+    for item in items:
         v = evaluate(item, it.env)
         parts.append(v if isinstance(v, str) else format_value(v, it.env) if v.dim in (None, NONE)
                      else v.describe(it.state.units))
-    it.print(" ".join(parts))
+    return " ".join(parts)
 
 
 @command("MACRO", None, "control", "MACRO name [param ...] ... END MACRO: a named block with parameters")
@@ -83,12 +88,7 @@ def _error_cmd(it, b, st):
     from .diagnostics import Diagnostic
     from .interp import StopScript
 
-    parts = []
-    for item in b["items"]:
-        v = evaluate(item, it.env)
-        parts.append(v if isinstance(v, str) else format_value(v, it.env) if v.dim in (None, NONE)
-                     else v.describe(it.state.units))
-    it.diags.add(Diagnostic(b.span, " ".join(parts) or "ERROR"))
+    it.diags.add(Diagnostic(b.span, _message(it, b["items"]) or "ERROR"))
     raise StopScript()
 
 
@@ -826,7 +826,6 @@ def _psf(it, b, st):
 
 
 ANALYSES = ("RGB", "PSF", "MTF", "ESF", "DEFOCUS", "DISK", "SPECTRUM")
-_PATH_OPTIONS = ("--output", "--plot", "--reference", "--mask", "--wavelengths")
 
 
 def analysis_argv(it, what: str, items) -> list:
