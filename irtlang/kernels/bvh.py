@@ -51,6 +51,8 @@ import math
 import numba
 import numpy as np
 
+from .geometry import two_prod
+
 __all__ = [
     "build_bvh",
     "hit_mesh",
@@ -67,7 +69,6 @@ N_BINS = 16
 MAX_LEAF = 16
 MEDIAN_DEPTH = 40
 STACK_SIZE = 128
-_SPLITTER = 134217729.0
 _FILTER = 1e-15  # > 3 eps: a naive 2x2 determinant larger than this relative bound has the right sign
 _BOX_PAD = 2.0 * (3.0 * 1.1102230246251565e-16) / (1.0 - 3.0 * 1.1102230246251565e-16)
 
@@ -328,19 +329,6 @@ def build_bvh(vertices, faces, leaf_size=4):
 # watertight ray/triangle
 # ----------------------------------------------------------------------------------------------------
 @numba.njit(cache=True, fastmath=False)
-def _two_prod(a, b):
-    p = a * b
-    t = _SPLITTER * a
-    ah = t - (t - a)
-    al = a - ah
-    t = _SPLITTER * b
-    bh = t - (t - b)
-    bl = b - bh
-    e = ((ah * bh - p) + ah * bl + al * bh) + al * bl
-    return p, e
-
-
-@numba.njit(cache=True, fastmath=False)
 def _edge(px, py, qx, qy):
     """f(P, Q) = qx py - qy px with a reliable sign; f(P, Q) == -f(Q, P) bit for bit."""
     a = qx * py
@@ -348,8 +336,8 @@ def _edge(px, py, qx, qy):
     d = a - b
     if abs(d) > _FILTER * (abs(a) + abs(b)):
         return d
-    a, ea = _two_prod(qx, py)
-    b, eb = _two_prod(qy, px)
+    a, ea = two_prod(qx, py)
+    b, eb = two_prod(qy, px)
     return (a - b) + (ea - eb)
 
 
