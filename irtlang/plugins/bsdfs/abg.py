@@ -38,9 +38,13 @@ from ...kernels.sampling import onb
 from ._common import table_interp, table_mu_nodes
 
 KIND = "ABG"
+def _slope_ok(g):
+    return None if g == 0 or 1e-3 <= g <= 10 else "must be 0 or in [0.001, 10]"
+
+
 FORM = Form((), (Clause("A", (PL("a", check=nonneg),), required=True, doc="scale (1/sr)"),
                  Clause("B", (PL("b", check=positive),), required=True, doc="shoulder"),
-                 Clause("G", (PL("g", check=nonneg),), required=True, doc="slope")))
+                 Clause("G", (PL("g", check=_slope_ok),), required=True, doc="slope")))
 EXAMPLE = "MODEL mirror_scatter ABG A 0.001 B 0.0001 G 2"
 TRANSMITS = False
 
@@ -54,9 +58,14 @@ ROW_A = ROW_C + NR + 1
 N_PARAMS = ROW_A + NT
 
 
+def _shoulder(b: float, g: float) -> float:
+    """b^(1/g), where the BRDF turns over, computed in log space (no overflow for large b or small g)."""
+    return math.exp(min(700.0, math.log(float(b)) / float(g))) if g > 0 else 1.0
+
+
 def normal_albedo(a: float, b: float, g: float) -> float:
     """2 pi A int_0^1 r / (B + r^g) dr: the albedo at normal incidence (the largest)."""
-    scale = b ** (1.0 / g) if g > 0 else 1.0
+    scale = _shoulder(b, g)
     pts = [p for p in (scale, 10 * scale) if 0 < p < 1]
     v = integrate.quad(lambda r: r / (b + r ** g), 0.0, 1.0, points=pts or None, limit=200,
                        epsabs=1e-13, epsrel=1e-11)[0]
@@ -80,7 +89,7 @@ def transmits(params) -> bool:
 
 
 def _nodes(b: float, g: float) -> np.ndarray:
-    scale = b ** (1.0 / g) if g > 0 else 1.0
+    scale = _shoulder(b, g)
     r1 = 0.02 * min(scale, 1.0)
     return np.concatenate(([0.0], np.geomspace(r1, 2.0, NR)))
 
