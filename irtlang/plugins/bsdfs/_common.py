@@ -29,6 +29,8 @@ import math
 import numba
 import numpy as np
 
+from ...kernels.sampling import onb
+
 MU_MIN = 1e-9          # floor on every cosine in the kernels (grazing directions never give NaN or inf)
 INV_PI = 1.0 / math.pi
 INV_4PI = 0.25 / math.pi
@@ -168,3 +170,24 @@ def slab_albedo(phase_avg, tau: float, w: float, mu_nodes: np.ndarray):
             g = _slab_geometry_np(tau, ms, mv, refl)
             out[i] = 0.5 * w * np.sum(wq * phase_avg(ms, mv, refl) * g * mv)
     return R, T
+
+
+@numba.njit(cache=True, fastmath=False)
+def slab_scatter(wix, wiy, wiz, nx, ny, nz, mu, u, tau, ci, norm, om):
+    """A slab model's scattered sample: the direction at angle acos(mu) from the propagation direction -wi,
+    azimuth 2 pi u, and its weight f |cos_o| / pdf = G |cos_o| norm / om (the phase function cancels)."""
+    s = math.sqrt(max(0.0, (1.0 - mu) * (1.0 + mu)))
+    ph = 2.0 * math.pi * u
+    t1x, t1y, t1z, t2x, t2y, t2z = onb(-wix, -wiy, -wiz)
+    a = s * math.cos(ph)
+    b = s * math.sin(ph)
+    ox = a * t1x + b * t2x - mu * wix
+    oy = a * t1y + b * t2y - mu * wiy
+    oz = a * t1z + b * t2z - mu * wiz
+    m = math.sqrt(ox * ox + oy * oy + oz * oz)
+    ox /= m
+    oy /= m
+    oz /= m
+    co = ox * nx + oy * ny + oz * nz
+    G = slab_geometry(tau, max(ci, MU_MIN), max(abs(co), MU_MIN), co > 0.0)
+    return ox, oy, oz, G * abs(co) * norm / om, False

@@ -42,8 +42,8 @@ import numpy as np
 from scipy import special
 
 from ...lang.spec import Clause, Form, PL, V, nonneg, positive, unit_interval
-from ...kernels.sampling import hg_sample, onb
-from ._common import (INV_4PI, INV_PI, MU_MIN, slab_albedo, slab_delta_prob, slab_direct, slab_geometry,
+from ...kernels.sampling import hg_sample
+from ._common import (slab_scatter, INV_4PI, INV_PI, MU_MIN, slab_albedo, slab_delta_prob, slab_direct, slab_geometry,
                       table_interp, table_mu_nodes)
 
 MAX_ORDERS = 32
@@ -208,22 +208,7 @@ def sample(P, k, wix, wiy, wiz, nx, ny, nz, u0, u1, u2):
             break
         gn *= g
     mu = hg_sample(u0, gn)
-    s = math.sqrt(max(0.0, (1.0 - mu) * (1.0 + mu)))
-    ph = 2.0 * math.pi * u1
-    t1x, t1y, t1z, t2x, t2y, t2z = onb(-wix, -wiy, -wiz)
-    a0 = s * math.cos(ph)
-    b0 = s * math.sin(ph)
-    ox = a0 * t1x + b0 * t2x - mu * wix
-    oy = a0 * t1y + b0 * t2y - mu * wiy
-    oz = a0 * t1z + b0 * t2z - mu * wiz
-    m = math.sqrt(ox * ox + oy * oy + oz * oz)
-    ox /= m
-    oy /= m
-    oz /= m
-    co = ox * nx + oy * ny + oz * nz
-    G = slab_geometry(tau, max(ci, MU_MIN), max(abs(co), MU_MIN), co > 0.0)
-    # f |co| / pdf = (w/4 P_eff G / pi) |co| / (q P_eff / (4 pi)) = G |co| norm / (1 - e)
-    return ox, oy, oz, G * abs(co) * norm / om, False
+    return slab_scatter(wix, wiy, wiz, nx, ny, nz, mu, u1, tau, ci, norm, om)
 
 
 @numba.njit(cache=True, fastmath=False)

@@ -38,8 +38,7 @@ import numba
 import numpy as np
 
 from ...lang.spec import Clause, Form, PL, V, nonneg, unit_interval
-from ...kernels.sampling import onb
-from ._common import (INV_4PI, INV_PI, MU_MIN, slab_albedo, slab_delta_prob, slab_direct, slab_geometry,
+from ._common import (slab_scatter, INV_4PI, INV_PI, MU_MIN, slab_albedo, slab_delta_prob, slab_direct, slab_geometry,
                       table_interp, table_mu_nodes)
 
 KIND = "RAYLEIGH"
@@ -156,22 +155,7 @@ def sample(P, k, wix, wiy, wiz, nx, ny, nz, u0, u1, u2):
     if u2 < pd or q <= 0.0:
         return -wix, -wiy, -wiz, norm, True
     mu = phase_sample(u0, P[2, k])
-    s = math.sqrt(max(0.0, (1.0 - mu) * (1.0 + mu)))
-    ph = 2.0 * math.pi * u1
-    t1x, t1y, t1z, t2x, t2y, t2z = onb(-wix, -wiy, -wiz)
-    a = s * math.cos(ph)
-    b = s * math.sin(ph)
-    ox = a * t1x + b * t2x - mu * wix
-    oy = a * t1y + b * t2y - mu * wiy
-    oz = a * t1z + b * t2z - mu * wiz
-    m = math.sqrt(ox * ox + oy * oy + oz * oz)
-    ox /= m
-    oy /= m
-    oz /= m
-    co = ox * nx + oy * ny + oz * nz
-    G = slab_geometry(tau, max(ci, MU_MIN), max(abs(co), MU_MIN), co > 0.0)
-    # f |co| / pdf = (w/4 P G / pi) |co| / (q P / (4 pi)) = w G |co| / q = G |co| norm / (1 - e)
-    return ox, oy, oz, G * abs(co) * norm / om, False
+    return slab_scatter(wix, wiy, wiz, nx, ny, nz, mu, u1, tau, ci, norm, om)
 
 
 @numba.njit(cache=True, fastmath=False)
