@@ -27,7 +27,10 @@ class Table:
         return np.interp(x, w, self.data[:, col])
 
 
-def read_table(path: Path, span: Span, min_cols: int = 2, max_cols: int = 2, what: str = "wavelength_nm, value") -> Table:
+def read_rows(path: Path, span: Span) -> list[tuple[int, list]]:
+    """(line number, values) of every data row of a text table: CSV, ';' or blank separated; '#' and '!!'
+    start comments; lines before the first numeric row are a header.  Equal row widths and finite values are
+    checked here; what the columns mean is the caller's."""
     try:
         raw = path.read_bytes()
     except OSError as e:
@@ -39,24 +42,29 @@ def read_table(path: Path, span: Span, min_cols: int = 2, max_cols: int = 2, wha
         s = line.split("!!")[0].split("#")[0].strip()
         if not s:
             continue
-        parts = [p for p in s.replace(",", " ").replace(";", " ").split()]
         try:
-            vals = [float(p) for p in parts]
+            vals = [float(p) for p in s.replace(",", " ").replace(";", " ").split()]
         except ValueError:
             if not rows:
                 continue  # a header line
             raise error(span, f"{path.name}:{ln}: not a number in '{line.strip()}'") from None
+        rows.append((ln, vals))
+    if len({len(v) for _, v in rows}) > 1:
+        raise error(span, f"'{path.name}': rows have different numbers of columns")
+    if rows and not np.all(np.isfinite(np.array([v for _, v in rows], float))):
+        raise error(span, f"'{path.name}' holds a value that is not finite")
+    return rows
+
+
+def read_table(path: Path, span: Span, min_cols: int = 2, max_cols: int = 2, what: str = "wavelength_nm, value") -> Table:
+    rows = []
+    for ln, vals in read_rows(path, span):
         if not min_cols <= len(vals) <= max_cols:
             raise error(span, f"{path.name}:{ln}: expected columns {what}, got {len(vals)} values")
         rows.append(vals)
     if len(rows) < 2:
         raise error(span, f"'{path.name}' needs at least two rows of {what}")
-    widths = {len(r) for r in rows}
-    if len(widths) != 1:
-        raise error(span, f"'{path.name}': rows have different numbers of columns")
     data = np.array(rows, float)
-    if not np.all(np.isfinite(data)):
-        raise error(span, f"'{path.name}' holds a value that is not finite")
     if np.any(np.diff(data[:, 0]) <= 0):
         raise error(span, f"'{path.name}': wavelengths must increase down the first column")
     return Table(data, path)

@@ -36,6 +36,7 @@ import math
 import numba
 import numpy as np
 
+from ...io.tables import read_rows
 from ...lang.diagnostics import error
 from ...lang.spec import Form, Path
 from ...kernels.sampling import cosine_hemisphere, onb
@@ -53,37 +54,14 @@ DEG = math.pi / 180.0
 # ---------------------------------------------------------------- reading
 def read_brdf_table(path, span, n_lines: int):
     """(theta_i, theta_o, phi, brdf[nI, nO, nP, C]) from a table file; C = 1 or n_lines."""
-    try:
-        raw = path.read_bytes()
-    except OSError as e:
-        raise error(span, f"cannot read '{path.name}': {e.strerror}") from None
-    if b"\x00" in raw[:4096]:
-        raise error(span, f"'{path.name}' is not a text table")
-    rows = []
-    for ln, line in enumerate(raw.decode("utf-8", "replace").splitlines(), 1):
-        s = line.split("!!")[0].split("#")[0].strip()
-        if not s:
-            continue
-        parts = s.replace(",", " ").replace(";", " ").split()
-        try:
-            vals = [float(p) for p in parts]
-        except ValueError:
-            if not rows:
-                continue  # a header line
-            raise error(span, f"{path.name}:{ln}: not a number in '{line.strip()}'") from None
-        rows.append((ln, vals))
+    rows = read_rows(path, span)
     if not rows:
         raise error(span, f"'{path.name}' holds no rows of theta_i_deg, theta_o_deg, phi_deg, brdf")
-    widths = {len(v) for _, v in rows}
-    if len(widths) != 1:
-        raise error(span, f"'{path.name}': rows have different numbers of columns")
-    w = widths.pop()
+    w = len(rows[0][1])
     if w != 4 and w != 3 + n_lines:
         raise error(span, f"'{path.name}' has {w} columns: expected theta_i_deg, theta_o_deg, phi_deg and one "
                     f"brdf column" + (f" or one per line ({n_lines})" if n_lines > 1 else ""))
     data = np.array([v for _, v in rows], float)
-    if not np.all(np.isfinite(data)):
-        raise error(span, f"'{path.name}' holds a value that is not finite")
     for col, name, hi in ((0, "theta_i", 90.0), (1, "theta_o", 90.0), (2, "phi", 180.0)):
         bad = (data[:, col] < 0) | (data[:, col] > hi)
         if bad.any():
