@@ -171,6 +171,34 @@ def _cmd_spectrum(args):
     return {"wavelength_nm": wl, "flux": flux, "stderr": se}
 
 
+def _cmd_series(args):
+    from .series import format_time_utc, read_spectra_series, series_apparent_albedo, write_series_csv
+
+    series = read_spectra_series(args.spectra_dir)
+    albedo = series_apparent_albedo(series.flux_W, series.wavelengths_nm, tsi=args.tsi,
+                                    sun_distance_au=args.sun_distance_au, distance_km=args.distance_km,
+                                    phase_deg=args.phase_deg, radius_km=args.radius_km, area_m2=args.area_m2)
+    write_series_csv(args.output, series, albedo)
+    if args.plot:
+        from .plots import plot_time_wavelength
+
+        day = series.times[0]
+        plot_time_wavelength(albedo, series.hours_since_midnight(), series.wavelengths_nm, args.plot,
+                             label="apparent albedo", diverging=False,
+                             time_label=f"UTC hour [h from {day:%Y-%m-%d} 00:00]")
+    return {"output": str(args.output), "plot": None if not args.plot else str(args.plot),
+            "times": len(series.times), "first_utc": format_time_utc(series.times[0]),
+            "last_utc": format_time_utc(series.times[-1]), "wavelength_nm": series.wavelengths_nm,
+            "mean_apparent_albedo": albedo.mean(axis=0), "min_apparent_albedo": float(albedo.min()),
+            "max_apparent_albedo": float(albedo.max())}
+
+
+def _cmd_animate(args):
+    from .animate import animate_folder
+
+    return animate_folder(args.frames_dir, args.output, fps=args.fps)
+
+
 def _save_csv(path, table, header):
     from ._common import atomic_path
 
@@ -179,8 +207,8 @@ def _save_csv(path, table, header):
 
 
 def build_parser(subparsers):
-    """Add the analysis subcommands (rgb, psf, mtf, esf, defocus, disk, spectrum) to an argparse subparsers
-    action; each sets ``args._analysis_handler`` for :func:`run`."""
+    """Add the analysis subcommands (rgb, psf, mtf, esf, defocus, disk, spectrum, series, animate) to an argparse
+    subparsers action; each sets ``args._analysis_handler`` for :func:`run`."""
 
     def add(name, handler, help_text):
         p = subparsers.add_parser(name, help=help_text, description=help_text)
@@ -250,6 +278,24 @@ def build_parser(subparsers):
     p.add_argument("--wavelengths", help="wavelengths in nm (.npy or .csv); a ray file supplies its own")
     p.add_argument("--mask", help="disk mask image (non-zero = disk)")
     p.add_argument("-o", "--output", help="write the spectrum as CSV")
+
+    p = add("series", _cmd_series, "hourly disk-integrated spectra (SPECTRUM OF files) as one table with the "
+            "apparent albedo of every line")
+    p.add_argument("spectra_dir", help="folder of <YYYYmmddTHHMM>.csv files (wavelength_nm,flux_W,stderr_W)")
+    p.add_argument("-o", "--output", required=True,
+                   help="output CSV: time_utc,wavelength_nm,flux_W,stderr_W,apparent_albedo")
+    p.add_argument("--plot", help="write a time x wavelength image of the apparent albedo (PNG/PDF/SVG)")
+    p.add_argument("--tsi", type=float, required=True, help="total solar irradiance at 1 AU, W/m2 (as SOLAR TSI)")
+    p.add_argument("--sun-distance-au", type=float, required=True, help="distance of the body from the Sun, AU")
+    p.add_argument("--distance-km", type=float, required=True, help="distance of the observer from the body, km")
+    p.add_argument("--phase-deg", type=float, required=True, help="phase angle (Sun-body-observer), degrees")
+    p.add_argument("--radius-km", type=float, required=True, help="radius of the body, km")
+    p.add_argument("--area-m2", type=float, required=True, help="collecting area of the aperture, m2")
+
+    p = add("animate", _cmd_animate, "every PNG of a folder, sorted by name, as an animated GIF or MP4")
+    p.add_argument("frames_dir", help="folder of PNG frames")
+    p.add_argument("-o", "--output", required=True, help="output animation: .gif or .mp4")
+    p.add_argument("--fps", type=float, default=4.0, help="frames per second (default 4)")
     return subparsers
 
 

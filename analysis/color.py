@@ -88,6 +88,10 @@ def _white_level(linear, stretch, percentile):
             level = float(np.max(linear))
         elif stretch == "percentile":
             level = float(np.percentile(linear, percentile))
+            if level <= 0 and np.any(linear > 0):
+                # a small or sparsely sampled target (a planet's disk on a dark sky): the percentile of the
+                # pixels with signal
+                level = float(np.percentile(linear[linear > 0], percentile))
         else:
             raise AnalysisError(f"stretch must be 'max', 'percentile', None or a positive number, got {stretch!r}")
     else:

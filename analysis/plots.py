@@ -113,13 +113,32 @@ def plot_spectra(wavelengths_nm, spectra, path, *, labels=None, ylabel="flux"):
     return _save(fig, path)
 
 
-def plot_time_wavelength(values, times_h, wavelengths_nm, path, *, label="relative difference"):
-    """Time x wavelength map (rows: times in hours, columns: wavelengths in nm), diverging colours about 0."""
+def _cell_edges(centres, half_width=0.5):
+    """Cell edges around sorted centres: midpoints, the end cells symmetric (one centre: +/- ``half_width``)."""
+    c = np.asarray(centres, dtype=np.float64).reshape(-1)
+    if c.size == 1:
+        return np.array([c[0] - half_width, c[0] + half_width])
+    mid = 0.5 * (c[1:] + c[:-1])
+    return np.concatenate([[2 * c[0] - mid[0]], mid, [2 * c[-1] - mid[-1]]])
+
+
+def plot_time_wavelength(values, times_h, wavelengths_nm, path, *, label="relative difference", diverging=True,
+                         time_label="time [h]"):
+    """Time x wavelength map (rows: times in hours, columns: wavelengths in nm): diverging colours about 0, or
+    with ``diverging=False`` a sequential map (viridis) from the smallest to the largest value (e.g. an apparent
+    albedo). Each value fills the cell reaching halfway to its neighbours."""
     fig, (ax,) = _figure(1, 6.0, 4.0)
     values = np.asarray(values, dtype=np.float64)
-    lim = float(np.nanmax(np.abs(values))) or 1.0
-    im = ax.pcolormesh(wavelengths_nm, times_h, values, cmap="RdBu_r", vmin=-lim, vmax=lim, shading="nearest")
+    if diverging:
+        lim = float(np.nanmax(np.abs(values))) or 1.0
+        cmap, vmin, vmax = "RdBu_r", -lim, lim
+    else:
+        cmap, vmin, vmax = "viridis", float(np.nanmin(values)), float(np.nanmax(values))
+        if vmin == vmax:
+            vmin, vmax = vmin - 0.5 * (abs(vmin) or 1.0), vmax + 0.5 * (abs(vmax) or 1.0)
+    im = ax.pcolormesh(_cell_edges(wavelengths_nm, 5.0), _cell_edges(times_h, 0.5), values, cmap=cmap, vmin=vmin,
+                       vmax=vmax, shading="flat")
     fig.colorbar(im, ax=ax, label=label)
     ax.set_xlabel("wavelength [nm]")
-    ax.set_ylabel("time [h]")
+    ax.set_ylabel(time_label)
     return _save(fig, path)

@@ -24,7 +24,14 @@ def _setup_numba_cache() -> None:
         os.environ["NUMBA_CACHE_DIR"] = os.path.join(base, "irtlang", "numba")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _wants_analysis(argv) -> bool:
+    """Only `irt analyze ...` and a bare `irt` / `irt --help` need the analysis package's subcommands: importing
+    it (scipy, matplotlib) would cost every `irt run` about a second of start-up (benchmarks/bench_startup.py)."""
+    words = [a for a in (sys.argv[1:] if argv is None else argv) if not a.startswith("-")]
+    return not words or words[0] == "analyze"
+
+
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="irt", description="irtlang: end-to-end optical simulation of space instruments")
     p.add_argument("--version", action="version", version=f"irt (irtlang) {__version__}")
     p.add_argument("--debug", action="store_true", help="show Python tracebacks")
@@ -33,6 +40,8 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="run a script")
     r.add_argument("file")
     r.add_argument("--out", help="output folder (default irt-out/<script name>/)")
+    r.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="set a variable before the script runs (the script's DEFAULT NAME VALUE keeps it); repeatable")
     g = r.add_mutually_exclusive_group()   # docs/cluster.md
     g.add_argument("--scheduler", metavar="ADDRESS", help="trace on the Dask cluster of this scheduler (tcp://host:8786)")
     g.add_argument("--workers", type=int, metavar="N", help="trace on a local Dask cluster of N worker processes")
@@ -42,6 +51,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     c = sub.add_parser("check", help="parse and validate scripts only")
     c.add_argument("files", nargs="+")
+    c.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="set a variable before the script runs (as irt run --set)")
     c.add_argument("--debug", action="store_true", default=argparse.SUPPRESS)
 
     f = sub.add_parser("fmt", help="print a script in canonical formatting")
@@ -50,19 +61,20 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub.add_parser("repl", help="interactive session")
 
-    try:
-        from analysis import cli as acli  # the analysis package is optional at parse time
-    except ImportError:  # pragma: no cover - analysis ships with irtlang
-        acli = None
-    if acli is not None and hasattr(acli, "build_parser"):
-        a = sub.add_parser("analyze", help="analyses of saved images, spectra and ray files")
-        acli.build_parser(a.add_subparsers(dest="analysis_cmd", metavar="ANALYSIS"))
+    a = sub.add_parser("analyze", help="analyses of saved images, spectra and ray files")
+    if _wants_analysis(argv):
+        try:
+            from analysis import cli as acli  # the analysis package is optional at parse time
+        except ImportError:  # pragma: no cover - analysis ships with irtlang
+            acli = None
+        if acli is not None and hasattr(acli, "build_parser"):
+            acli.build_parser(a.add_subparsers(dest="analysis_cmd", metavar="ANALYSIS"))
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     _setup_numba_cache()
-    args = build_parser().parse_args(argv)
+    args = build_parser(argv).parse_args(argv)
     debug = getattr(args, "debug", False)
     try:
         if args.cmd == "run":
@@ -101,7 +113,7 @@ def _print_diags(e) -> None:
     print(f"{n} error{'s' if n != 1 else ''}", file=sys.stderr)
 
 
-def _load_check(path: str):
+def _load_check(path: str, presets=()):
     """Check a script; returns the interpreter, or raises IrtError with every diagnostic."""
     from .lang.diagnostics import Diagnostic, IrtError, Source, Span
     from .lang.interp import check_file
@@ -112,7 +124,7 @@ def _load_check(path: str):
         raise IrtError(Diagnostic(at, f"no such file: {path}"))
     if p.is_dir():
         raise IrtError(Diagnostic(at, f"{path} is a folder, not a script"))
-    return check_file(p)
+    return check_file(p, presets)
 
 
 def cmd_check(args) -> int:
@@ -121,7 +133,7 @@ def cmd_check(args) -> int:
     status = EXIT_OK
     for f in args.files:
         try:
-            _load_check(f)
+            _load_check(f, getattr(args, "set", None) or ())
             print(f"{f}: ok")
         except IrtError as e:
             _print_diags(e)
@@ -140,7 +152,7 @@ def cmd_run(args) -> int:
         print("irt: --workers needs at least 1 worker", file=sys.stderr)
         return EXIT_INPUT
     try:
-        _load_check(args.file)   # report input errors before starting or reaching a cluster
+        _load_check(args.file, getattr(args, "set", None) or ())   # input errors before reaching a cluster
     except IrtError:
         return _run_script(args)
     try:
@@ -164,7 +176,7 @@ def _run_script(args, runner=None) -> int:
     from .lang.interp import Interpreter
 
     try:
-        checked = _load_check(args.file)
+        checked = _load_check(args.file, getattr(args, "set", None) or ())
     except IrtError as e:
         _print_diags(e)
         return EXIT_INPUT
@@ -179,6 +191,7 @@ def _run_script(args, runner=None) -> int:
     status = "complete"
     code = EXIT_OK
     try:
+        it.preset(getattr(args, "set", None) or ())
         it.run_file(script)
         if it.diags:  # run-time diagnostics (a value only known while running)
             raise IrtError(it.diags.items)

@@ -49,7 +49,14 @@ COLS = ("incident_W", "reflected_W", "transmitted_W", "scattered_W", "absorbed_W
 def needs_from_steps(steps) -> tuple[bool, bool]:
     """(records, history) that the program's steps need, decided from the checked program."""
     rec = hist = False
+    scene = None
     for s in steps:
+        if s.kind == "TRACE":
+            scene = getattr(s, "scene", None)
+        if s.kind == "EXPORT" and scene is not None and not s.params.get("diffraction"):
+            obj = scene.objects.get(s.params.get("object"))
+            if obj is not None and obj.detector is not None:
+                continue    # a DETECTOR's image is a streaming sum: no per-ray records (memory flat in rays)
         if s.kind in RECORD_STEPS or (s.kind == "STATS" and s.params.get("what") in ("POSITION", "DIRECTION")):
             rec = True
         if s.kind == "SELECT" and s.params.get("predicate") is not None:
@@ -250,8 +257,9 @@ class Engine:
             ref, rel = self._rel_positions(m)
             x, y, ox, oy = rel[:, ax[0]], rel[:, ax[1]], ref[ax[0]], ref[ax[1]]
         tot = w.sum()
-        cx, cy = (x * w).sum() / tot, (y * w).sum() / tot
-        rms = math.sqrt(((x - cx) ** 2 + (y - cy) ** 2) @ w / tot)
+        wg = w if tot > 0 else np.ones_like(w)   # rays that carry no flux (FLUX TOTAL 0): their plain centroid
+        cx, cy = (x * wg).sum() / wg.sum(), (y * wg).sum() / wg.sum()
+        rms = math.sqrt(((x - cx) ** 2 + (y - cy) ** 2) @ wg / wg.sum())
         cx, cy = ox + cx, oy + cy
         scale = f if step.params["what"] == "POSITION" else 1.0
         lab = unit if step.params["what"] == "POSITION" else "(direction cosine)"
@@ -267,7 +275,12 @@ class Engine:
         if m.sum() < 2:
             raise RuntimeFailure(step.span, "FOCUS needs at least two selected rays")
         p, d, w = self._rel_positions(m)[1], r["direction"][m], r["flux"][m]   # only differences of p matter
+        if not w.sum() > 0:
+            w = np.ones_like(w)    # rays that carry no flux (FLUX TOTAL 0): weigh them equally, as STATS does
         axis = (d * w[:, None]).sum(0)
+        if not np.abs(axis).max() > 0:
+            raise RuntimeFailure(step.span, "FOCUS: the selected rays have no mean direction")
+        axis /= np.abs(axis).max()   # to O(1) first: with denormal fluxes the squares in the norm underflow
         axis /= np.linalg.norm(axis)
         a = int(np.argmax(np.abs(axis)))
         sgn = 1.0 if axis[a] > 0 else -1.0
@@ -327,8 +340,18 @@ class Engine:
                 from .optics.psf_step import diffraction_image
                 img, img2, kept = diffraction_image(self, step, obj.name, img, img2, (x1 - x0) * f / img.shape[2])
                 note = f", convolved with the diffraction kernel ({kept:.4f} of its energy)"
-            self._write_image(step.params["file"], img, "image", extent=(x0, x1, y0, y1), sum2=img2)
-            self.out(f"EXPORT {obj.name}: {img.shape[2]}x{img.shape[1]} pixels x {img.shape[0]} lines, "
+            filters = (self.result.packed.d_filters[d] if getattr(self.result.packed, "d_filters", None)
+                       else None)
+            what = "lines"
+            if filters is not None:
+                what = "filters"
+                if step.params.get("filter") is not None:
+                    k = step.params["filter"]
+                    img, img2 = img[k:k + 1], img2[k:k + 1]
+                    what = f"filter {filters[0][k]}"
+            self._write_image(step.params["file"], img, "image", extent=(x0, x1, y0, y1), sum2=img2,
+                              per_line=filters is None)
+            self.out(f"EXPORT {obj.name}: {img.shape[2]}x{img.shape[1]} pixels x {img.shape[0]} {what}, "
                      f"{img.sum():.6g} W{note} -> {step.params['file']}")
             return
         if step.params.get("diffraction"):
@@ -437,12 +460,13 @@ class Engine:
         write_text(p, text)
         self.folder.record(p, kind)
 
-    def _write_image(self, rel, img, kind, extent, sum2=None):
+    def _write_image(self, rel, img, kind, extent, sum2=None, per_line=True):
         from .io.images import write_image
 
         p = self.folder.output(rel)
         unit, _ = self._lu()
-        lines = self.result.packed.lines_nm if img.shape[0] == len(self.result.packed.lines_nm) else None
+        lines = (self.result.packed.lines_nm if per_line and img.shape[0] == len(self.result.packed.lines_nm)
+                 else None)
         for q in write_image(p, img, sum2=sum2, extent=extent, wavelengths_nm=lines, length_unit=unit):
             self.folder.record(q, kind)
 

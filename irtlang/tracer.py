@@ -154,6 +154,18 @@ class TraceContext:
         self.d_sizes = [self.L * int(ny) * int(nx) for nx, ny in zip(pk.d_nx, pk.d_ny)]
         self.d_off = (np.concatenate([[0], np.cumsum(self.d_sizes)[:-1]]).astype(np.int64) if self.d_sizes
                       else np.zeros(0, np.int64))
+        # the images: one per line, or one per filter (DETECTOR ... FILTERS; reduce_batch applies the matrix)
+        filt = list(pk.d_filters) or [None] * len(self.d_sizes)
+        self.d_planes = [self.L if f is None else len(f[0]) for f in filt]
+        self.i_sizes = [b * int(ny) * int(nx) for b, nx, ny in zip(self.d_planes, pk.d_nx, pk.d_ny)]
+        self.i_off = (np.concatenate([[0], np.cumsum(self.i_sizes)[:-1]]).astype(np.int64) if self.i_sizes
+                      else np.zeros(0, np.int64))
+        self.d_npix = np.array([int(ny) * int(nx) for nx, ny in zip(pk.d_nx, pk.d_ny)], np.int64)
+        self.d_nb = np.array([0 if f is None else len(f[0]) for f in filt], np.int64)
+        mats = [np.zeros(0) if f is None else np.ascontiguousarray(f[1], float).ravel() for f in filt]
+        self.d_fm = np.concatenate(mats) if mats else np.zeros(0)
+        self.d_fm_off = (np.concatenate([[0], np.cumsum([m.size for m in mats])[:-1]]).astype(np.int64) if mats
+                         else np.zeros(0, np.int64))
         self.cap = 2 * self.mod.CHUNK
         self.rcap = 2 * self.mod.CHUNK if records else 1
 
@@ -173,7 +185,7 @@ class TraceContext:
                        flags=np.zeros((nch, rc), np.uint32), history=np.zeros((nch, rc, H), np.int32),
                        opl=np.zeros((nch, rc)), start=np.zeros((nch, rc, 2)))
             rec_n = np.zeros(nch, np.int64)
-            self.mod.trace_batch(first, n, self.total, self.seed, self.level, self.halt, pk.r_importance,
+            self.mod.trace_batch(first, n, self.total, self.seed, self.level, self.halt, pk.nee_cut, pk.r_importance,
                                  self.s_f, self.s_i, self.mesh_i, pk.bvh_bmin, pk.bvh_bmax, pk.bvh_child,
                                  pk.bvh_count, pk.bvh_tris, pk.bvh_ids, pk.bvh_fn, pk.o_itf, pk.o_coat, pk.o_back,
                                  pk.o_front, pk.o_det, self.o_bc, self.o_br, pk.o_sc_first, pk.o_sc_cnt, pk.sp_kind,
@@ -212,14 +224,15 @@ class Accumulator:
         self.ctx = ctx
         self.ledger = np.zeros((ctx.rows, 5, ctx.L))
         self.ledger_sq = np.zeros((ctx.rows, ctx.L))
-        self.img = np.zeros(int(sum(ctx.d_sizes)))
+        self.img = np.zeros(int(sum(ctx.i_sizes)))
         self.img_sq = np.zeros_like(self.img)
         self.rec_parts: list[dict] = []
         self.done = 0
 
     def add(self, t: BatchTally) -> None:
-        self.ctx.mod.reduce_batch(t.led, t.inc_sq, t.dep_idx, t.dep_w, t.dep_n, self.ledger, self.ledger_sq,
-                                  self.img, self.img_sq)
+        c = self.ctx
+        c.mod.reduce_batch(t.led, t.inc_sq, t.dep_idx, t.dep_w, t.dep_n, self.ledger, self.ledger_sq,
+                           self.img, self.img_sq, c.d_off, c.d_npix, c.i_off, c.d_nb, c.d_fm, c.d_fm_off)
         if t.records is not None:
             self.rec_parts.append(t.records)
         self.done += t.n
@@ -228,8 +241,8 @@ class Accumulator:
         ctx = self.ctx
         images = {}
         for d, name in enumerate(ctx.pk.detector_names):
-            shape = (ctx.L, int(ctx.pk.d_ny[d]), int(ctx.pk.d_nx[d]))
-            a, b = int(ctx.d_off[d]), int(ctx.d_off[d]) + ctx.d_sizes[d]
+            shape = (ctx.d_planes[d], int(ctx.pk.d_ny[d]), int(ctx.pk.d_nx[d]))
+            a, b = int(ctx.i_off[d]), int(ctx.i_off[d]) + ctx.i_sizes[d]
             images[name] = (self.img[a:b].reshape(shape), self.img_sq[a:b].reshape(shape))
         recs = None
         if ctx.records and self.rec_parts:

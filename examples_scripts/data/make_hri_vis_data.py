@@ -44,7 +44,9 @@ EDGE_NM = 5.0
 QE_KNOTS = [(300, 0.10), (350, 0.30), (400, 0.55), (450, 0.70), (500, 0.78), (550, 0.82), (600, 0.84), (650, 0.83),
             (700, 0.80), (750, 0.74), (800, 0.65), (850, 0.52), (900, 0.37), (950, 0.23), (1000, 0.11),
             (1050, 0.03), (1100, 0.0)]
-GRID = [300 + 2 * i for i in range(401)]     # 300 .. 1100 nm, 2 nm
+# 290 .. 1100 nm every 2 nm, then to 2600 nm every 20 nm (the filters' far wings and the QE are 0 there): the
+# tables cover the Earth script's lines, 300-2500 nm, with their bands' edges
+GRID = [290 + 2 * i for i in range(406)] + [1120 + 20 * i for i in range(75)]
 
 
 def _s(x: float) -> float:

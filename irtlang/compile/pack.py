@@ -56,6 +56,7 @@ class Features:
     maps: bool = False         # SCATTER MAP lookups (geodetic latitude, longitude)
     volume: bool = False       # scattering media (free-path sampling)
     importance: bool = False   # SCATTER ... TOWARD: next-event rays and the IMPORTANCE ledger row
+    shells: bool = False       # nested concentric spheres/ellipsoids (atmosphere shells): test neighbours only
     bsdf_kinds: tuple = ()     # the scatter-model kinds the scene uses (their dispatch order)
 
     def key(self) -> str:
@@ -158,6 +159,9 @@ class Packed:
     src_pts_off: np.ndarray
     n_rays_total: int = 0
     emitted_W: np.ndarray = field(default_factory=lambda: np.zeros(0))   # per line
+    nee_cut: float = 0.0            # roulette of rays sent toward targets (HALT ... IMPORTANCE c)
+    d_filters: list = field(default_factory=list)   # per detector: None (an image per line) or
+                                                    # (filter names, (L, B) transmission matrix)
 
     def surface_tables(self):
         """(s_f, s_i, mesh_i): the surface columns as the kernel reads them (see trace_kernel SF_*/SI_*)."""
@@ -171,7 +175,11 @@ class Packed:
         f[:, 28:31] = self.s_Tl
         f[:, 31] = self.s_size
         f[:, 32:36] = self.s_bs
-        i = np.stack([self.s_kind, self.s_nasph, self.s_ap_kind, self.s_mesh, self.s_obj], axis=1).astype(np.int64)
+        # SI_AXIS: the surface's rotation is exactly the identity (the kernel then skips the frame rotation)
+        axis = np.all(np.asarray(self.s_R, float).reshape(n, 9) == np.eye(3).ravel(), axis=1) if n else np.zeros(0, bool)
+        fam, fidx = shell_families(self)
+        i = np.stack([self.s_kind, self.s_nasph, self.s_ap_kind, self.s_mesh, self.s_obj, axis, fam, fidx],
+                     axis=1).astype(np.int64)
         m = np.stack([self.m_node_off, self.m_node_n, self.m_tri_off, self.m_tri_n], axis=1).astype(np.int64) \
             if len(self.m_node_n) else np.zeros((1, 4), np.int64)
         return np.ascontiguousarray(f), np.ascontiguousarray(i), m
@@ -188,6 +196,58 @@ class Packed:
     def row_names(self) -> list:
         return (list(self.object_names) + [f"MEDIUM {self.medium_names[m]}" for m in self.absorbing_media]
                 + (["IMPORTANCE"] if self.features.importance else []) + ["EMITTED", "ESCAPED", "HALTED", "LOST"])
+
+
+def shell_families(pk) -> tuple:
+    """(family, index in family) per surface: spheres and ellipsoids with one centre and one orientation whose
+    semi-axes grow strictly from one to the next are *nested shells* (an atmosphere); -1 elsewhere.  A ray that
+    has just crossed shell i of a family can next meet only shells i - 1, i and i + 1 of it (a straight ray
+    that leaves a convex shell never re-enters it, and cannot reach a farther shell without crossing a nearer
+    one), so the kernel skips the others (feature `shells`)."""
+    n = len(pk.s_kind)
+    fam = np.full(n, -1, np.int64)
+    fidx = np.zeros(n, np.int64)
+    groups: dict = {}
+    for j in range(n):
+        k = int(pk.s_kind[j])
+        if k not in (2, 3) or pk.s_ap_kind[j] != 0:
+            continue
+        axes = (pk.s_par[j][0],) * 3 if k == 2 else tuple(pk.s_par[j][:3])
+        c = np.asarray(pk.s_R[j], float).ravel().tolist() + list(pk.s_Th[j]) + list(pk.s_Tl[j])
+        groups.setdefault(tuple(c), []).append((axes, j))
+    nf = 0
+    for members in groups.values():
+        if len(members) < 3:
+            continue
+        members.sort()
+        ok = all(all(a < b for a, b in zip(members[q][0], members[q + 1][0])) for q in range(len(members) - 1))
+        if not ok:
+            continue
+        for q, (_, j) in enumerate(members):
+            fam[j], fidx[j] = nf, q
+        nf += 1
+    return fam, fidx
+
+
+_MODEL_PACKS: dict = {}
+
+
+def _pack_model(kind: str, params, L: int) -> np.ndarray:
+    """A scatter model's parameter block, remembered for the session: a script that traces many times (the
+    Earth's hourly frames) packs its slab tables once."""
+    from ..plugins.bsdfs import REGISTRY as BSDFS
+
+    try:
+        key = (kind, L, repr(sorted((k, v) for k, v in dict(params).items())))
+    except TypeError:
+        return BSDFS[kind].pack(params, L)
+    blk = _MODEL_PACKS.get(key)
+    if blk is None:
+        blk = BSDFS[kind].pack(params, L)
+        if len(_MODEL_PACKS) > 512:
+            _MODEL_PACKS.clear()
+        _MODEL_PACKS[key] = blk
+    return blk.copy()
 
 
 def _load_map(mdef: M.MapDef) -> np.ndarray:
@@ -383,7 +443,7 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
     kinds = [kk for kk in BSDFS if any(scene.models[m].kind == kk for m in used_models)]
     feats.bsdf_kinds = tuple(kinds)
     feats.scatter = bool(used_models)
-    blocks = [BSDFS[scene.models[m].kind].pack(scene.models[m].params, L) for m in used_models]
+    blocks = [_pack_model(scene.models[m].kind, scene.models[m].params, L) for m in used_models]
     pmax = max([b.shape[0] for b in blocks] + [1])
     mod_P = np.zeros((max(1, len(blocks)), pmax, L))
     for j, b in enumerate(blocks):
@@ -517,7 +577,10 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
     d_ny = np.zeros(nD, np.int32)
     d_ext = np.zeros((nD, 4))
     d_qe = np.ones((max(nD, 1), L))
+    d_filters = []
     for d, (i, obj) in enumerate(det_rows):
+        f = obj.detector.filters
+        d_filters.append(None if not f else ([n for n, _ in f], np.array([t for _, t in f], float).T.copy()))
         if obj.detector.qe is not None:
             d_qe[d] = obj.detector.qe
         ap = next(s.aperture for s in obj.surfaces if s.aperture is not None)
@@ -534,7 +597,7 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
     for t in src["src_Th"]:
         if np.max(np.abs(t)) > 1e6:
             feats.precise = True
-    return Packed(lines, widths, [scene.objects[k].name for k in obj_keys], [scene.media[k].name for k in med_keys],
+    pk = Packed(lines, widths, [scene.objects[k].name for k in obj_keys], [scene.media[k].name for k in med_keys],
                   absorbing, feats, s_obj, s_kind, s_par, s_asph, s_nasph, s_ap_kind, s_ap, s_R, s_Th, s_Tl, s_size,
                   s_mesh, s_bs, m_node_off, m_node_n, m_tri_off, m_tri_n,
                   cat(0, np.float64, (0, 3)), cat(1, np.float64, (0, 3)), cat(2, np.int64, (0,)),
@@ -545,7 +608,10 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
                   o_sc_first, o_sc_cnt, sp_kind, sp_model, sp_map, sp_cls_off, sp_cls_n, sp_rays, sp_tgt, cls_models,
                   map_data, map_off, map_nlat, map_nlon,
                   mod_kind, mod_P, mod_slab, [scene.models[m].name for m in used_models],
-                  d_obj, d_nx, d_ny, d_ext, d_qe, [scene.objects[obj_keys[i]].name for i, _ in det_rows], **src)
+                  d_obj, d_nx, d_ny, d_ext, d_qe, [scene.objects[obj_keys[i]].name for i, _ in det_rows],
+                  d_filters=d_filters, nee_cut=float(getattr(scene, 'importance_cut', 0.0)), **src)
+    feats.shells = bool(np.any(shell_families(pk)[0] >= 0))
+    return pk
 
 
 def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:

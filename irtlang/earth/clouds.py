@@ -210,14 +210,18 @@ def liquid_table() -> np.ndarray:
     return np.array([[float(v) for v in ln.split(",")] for ln in lines[1:]])
 
 
-def liquid_optics(lwc_g_m3, r_eff_um: float, wavelength_nm: float) -> tuple[float, float, float]:
+def liquid_optics(lwc_g_m3, r_eff_um: float, wavelength_nm: float, *, clamp: bool = False
+                  ) -> tuple[float, float, float]:
     """(beta in km^-1, omega, g) of a water cloud of liquid water content LWC (g m^-3) and effective radius r_e
     (2.5-60 um) at one of the tabulated wavelengths (the HRI bands; others are interpolated linearly between
-    the neighbouring band centres)."""
+    the neighbouring band centres).  clamp: outside the table's 350-950 nm take the nearest end's values (the
+    Earth model's lines from 300 to 2500 nm; docs/earth.md says what that misses), else refuse."""
     if not 2.5 <= r_eff_um <= 60.0:
         raise ValueError(f"effective radius {r_eff_um:g} um is outside the parameterization's 2.5-60 um")
     tab = liquid_table()
     wls = np.unique(tab[:, 0])
+    if clamp:
+        wavelength_nm = min(max(wavelength_nm, wls[0]), wls[-1])
     if not wls[0] <= wavelength_nm <= wls[-1]:
         raise ValueError(f"wavelength {wavelength_nm:g} nm is outside the table's {wls[0]:g}-{wls[-1]:g} nm")
 
@@ -248,18 +252,20 @@ FU96 = {
 }
 
 
-def fu_band(wavelength_nm: float) -> int:
+def fu_band(wavelength_nm: float, *, clamp: bool = False) -> int:
+    if clamp:
+        wavelength_nm = min(max(wavelength_nm, 200.0), 1299.0)
     for b, c in FU96.items():
         if c["band_um"][0] * 1e3 <= wavelength_nm < c["band_um"][1] * 1e3:
             return b
     raise ValueError(f"wavelength {wavelength_nm:g} nm is outside Fu's bands 1-2 (200-1300 nm)")
 
 
-def ice_optics(iwc_g_m3, d_ge_um: float, wavelength_nm: float, delta_scaled: bool = False):
+def ice_optics(iwc_g_m3, d_ge_um: float, wavelength_nm: float, delta_scaled: bool = False, *, clamp: bool = False):
     """(beta in km^-1, omega, g) of an ice cloud (Fu 1996) of IWC (g m^-3) and generalized effective size D_ge
     (um).  delta_scaled: remove the forward peak f = 1/(2 omega) + f_delta as Fu-Liou does (tau' = (1 - f omega)
     tau, omega' = (1 - f) omega / (1 - f omega), g' = (g - f) / (1 - f))."""
-    c = FU96[fu_band(wavelength_nm)]
+    c = FU96[fu_band(wavelength_nm, clamp=clamp)]
     d = float(d_ge_um)
     beta = float(iwc_g_m3) * (c["a"][0] + c["a"][1] / d) * 1e3
     poly = lambda k: sum(v * d ** i for i, v in enumerate(c[k]))  # noqa: E731
@@ -274,16 +280,16 @@ def ice_optics(iwc_g_m3, d_ge_um: float, wavelength_nm: float, delta_scaled: boo
 
 # ============================================================================ script lines
 def cloud_model_line(name: str, wavelengths_nm, *, thickness_km: float, lwc_g_m3: float = 0.0, r_eff_um: float = 10.0,
-                     iwc_g_m3: float = 0.0, d_ge_um: float = 60.0, orders: int = 4) -> str:
+                     iwc_g_m3: float = 0.0, d_ge_um: float = 60.0, orders: int = 4, clamp: bool = False) -> str:
     """`MODEL name HG G ... TAU ... ALBEDO ...` for a cloud layer of the given water contents and thickness,
     one value per wavelength line (liquid and ice mixed by their extinction)."""
     taus, ws, gs = [], [], []
     for wl in wavelengths_nm:
         parts = []
         if lwc_g_m3 > 0:
-            parts.append(liquid_optics(lwc_g_m3, r_eff_um, wl))
+            parts.append(liquid_optics(lwc_g_m3, r_eff_um, wl, clamp=clamp))
         if iwc_g_m3 > 0:
-            parts.append(ice_optics(iwc_g_m3, d_ge_um, wl))
+            parts.append(ice_optics(iwc_g_m3, d_ge_um, wl, clamp=clamp))
         if not parts:
             raise ValueError("a cloud needs liquid or ice water")
         be = sum(p[0] for p in parts)

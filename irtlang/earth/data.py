@@ -349,6 +349,12 @@ def _b_sea_ice(inp, prm):
     return sea_ice_fraction_proxy(inp["LANDCOVER"])
 
 
+def _b_aerosol(inp, prm):
+    from .aerosols import aerosol_type_map
+
+    return aerosol_type_map(inp["LANDCOVER"])
+
+
 def _cloud_builder(key):
     def b(inp, prm):
         return cloud_fraction_maps(inp["LAND_FRACTION"], seed=prm["cloud_seed"])[key]
@@ -383,6 +389,10 @@ DATASETS: dict[str, Dataset] = {d.name: d for d in [
             True, ("LAND_FRACTION",), _cloud_builder("middle"), ("cloud_seed",)),
     Dataset("CLOUD_HIGH", "high-cloud coverage (tops above 440 hPa), 10 levels", "1", _CLOUD_SRC, _PROXY_LICENCE,
             True, ("LAND_FRACTION",), _cloud_builder("high"), ("cloud_seed",)),
+    Dataset("AEROSOL_TYPE", "aerosol type per cell, classes 0-4 as irtlang.earth.aerosols.EARTH_TYPES: maritime "
+            "clean, continental average, desert, urban, arctic", "class",
+            "PROXY built by irtlang.earth.aerosols.aerosol_type_map from LANDCOVER: water maritime, barren desert, "
+            "other land continental, poleward of 60 deg arctic", _PROXY_LICENCE, True, ("LANDCOVER",), _b_aerosol),
 ]}
 
 UNAVAILABLE = {

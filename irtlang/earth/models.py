@@ -12,9 +12,9 @@ include files an Earth script (examples_scripts/earth.inr) reads.
   typical microphysics of ``CLOUD_LAYERS``;
 * ``earth_aerosols.inr``: ``aer_<type>_<i>`` HG slabs for each of the five Earth aerosol types in each layer
   below 12 km (irtlang.earth.aerosols);
-* ``earth_maps.inr``: the MAP lines of the default-tier datasets (``MAP cover LATLON DEFAULT LANDCOVER`` ...) and,
-  for the per-layer cloud maps that the language has no DEFAULT name for, ``.npy`` copies next to the includes
-  with ``MAP ... LATLON 'cloud_low.npy'`` lines.
+* ``earth_media.inr``: ``MEDIUM air_i INDEX ...``, the LOWTRAN 7 refractive index of each layer;
+* ``earth_maps.inr``: the MAP lines of the default-tier datasets (``MAP cover LATLON DEFAULT LANDCOVER`` ...,
+  the per-layer cloud maps ``CLOUD_LOW`` ... and the aerosol types ``AEROSOL_TYPE``).
 
 Every value is per wavelength line, in the order of bands_nm: the script's WAVELENGTHS must list the same lines.
 """
@@ -57,11 +57,26 @@ def atmosphere_layer_lines(bands_nm=surfaces.HRI_BANDS_NM, levels_km=PAPER_LEVEL
     return out
 
 
-def cloud_lines(bands_nm=surfaces.HRI_BANDS_NM, layers=None) -> list:
+def cloud_lines(bands_nm=surfaces.HRI_BANDS_NM, layers=None, clamp: bool = False) -> list:
     out = []
     for name, (z0, z1, lwc, re, iwc, dge) in (layers or CLOUD_LAYERS).items():
         out.append(clouds.cloud_model_line(f"cloud_{name}", bands_nm, thickness_km=z1 - z0, lwc_g_m3=lwc,
-                                           r_eff_um=re, iwc_g_m3=iwc, d_ge_um=dge))
+                                           r_eff_um=re, iwc_g_m3=iwc, d_ge_um=dge, clamp=clamp))
+    return out
+
+
+def media_lines(bands_nm=surfaces.HRI_BANDS_NM, levels_km=PAPER_LEVELS_KM, prefix: str = "air") -> list:
+    """`MEDIUM air_i INDEX ...` per layer (i = 1 at the ground): the refractive index of dry air, LOWTRAN 7 form
+    (irtlang.earth.atmosphere.refractivity_lowtran), at the USSA 1976 pressure and temperature of the layer's
+    mid-height, one value per line; the space above the last level is VACUUM."""
+    from .atmosphere import refractivity_lowtran, ussa1976
+
+    out = []
+    for i in range(len(levels_km) - 1):
+        zm = 0.5 * (levels_km[i] + levels_km[i + 1]) * 1e3
+        p, t = ussa1976(zm)
+        n = 1.0 + refractivity_lowtran(np.asarray(bands_nm, float), p, t)
+        out.append(f"MEDIUM {prefix}_{i + 1} INDEX " + " ".join(f"{v:.9f}" for v in n))
     return out
 
 
@@ -82,10 +97,10 @@ def _header(what: str, bands_nm) -> list:
             f"!! (the script must say: WAVELENGTHS {_fmt(bands_nm)} NM)"]
 
 
-def write_earth_includes(folder, bands_nm=surfaces.HRI_BANDS_NM, *, cache_dir=None) -> dict:
-    """Write the include files (and the per-layer cloud maps) into folder; returns {name: path}."""
-    from .data import export_dataset
-
+def write_earth_includes(folder, bands_nm=surfaces.HRI_BANDS_NM, *, clamp: bool = False) -> dict:
+    """Write the include files (and the per-layer cloud maps and the aerosol-type map) into folder; returns
+    {name: path}.  clamp: the cloud optics (tabulated at 350-950 nm) take their nearest band's values outside
+    that range, as the surface tables do (for the Earth script's 300-2500 nm lines; docs/earth.md)."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     bands = [float(b) for b in bands_nm]
@@ -94,15 +109,18 @@ def write_earth_includes(folder, bands_nm=surfaces.HRI_BANDS_NM, *, cache_dir=No
         + surfaces.landcover_model_lines(bands),
         "earth_atmosphere.inr": _header("atmosphere: Rayleigh + O3/H2O/O2 absorption per layer, ground up", bands)
         + [f"!! layer boundaries (km): {_fmt(PAPER_LEVELS_KM)}"] + atmosphere_layer_lines(bands),
-        "earth_clouds.inr": _header("clouds: low (liquid), middle (mixed), high (ice)", bands) + cloud_lines(bands),
+        "earth_clouds.inr": _header("clouds: low (liquid), middle (mixed), high (ice)", bands)
+        + cloud_lines(bands, clamp=clamp),
+        "earth_media.inr": _header("media: air of each layer (LOWTRAN 7 refractive index), ground up", bands)
+        + media_lines(bands),
         "earth_aerosols.inr": _header("aerosols: OPAC types per layer below 12 km", bands) + aerosol_lines(bands),
     }
     maps = ["MAP cover LATLON DEFAULT LANDCOVER", "MAP land LATLON DEFAULT LAND_MASK",
             "MAP snow LATLON DEFAULT SNOW_FRACTION", "MAP seaice LATLON DEFAULT SEA_ICE_FRACTION",
             "MAP clouds LATLON DEFAULT CLOUD_FRACTION"]
     for layer in ("low", "middle", "high"):
-        export_dataset(f"CLOUD_{layer.upper()}", folder / f"cloud_{layer}.npy", cache_dir)
-        maps.append(f"MAP cloud_{layer} LATLON 'cloud_{layer}.npy'")
+        maps.append(f"MAP cloud_{layer} LATLON DEFAULT CLOUD_{layer.upper()}")
+    maps.append("MAP aerosol LATLON DEFAULT AEROSOL_TYPE")
     files["earth_maps.inr"] = ["!! maps of the default data tier (irtlang.earth.data)"] + maps
     out = {}
     for name, lines in files.items():

@@ -22,7 +22,9 @@ class RunFolder:
     def output(self, rel: str) -> Path:
         """Where an output named in the script goes (relative paths are relative to the run folder)."""
         p = Path(rel)
-        return p if p.is_absolute() else self.root / p
+        p = p if p.is_absolute() else self.root / p
+        p.parent.mkdir(parents=True, exist_ok=True)     # 'frames/x.npy', 'rays/y.h5': folders as named
+        return p
 
     def record(self, path: Path, kind: str) -> None:
         path = Path(path)

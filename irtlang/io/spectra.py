@@ -48,6 +48,33 @@ def rebin(w_src, v_src, lines_nm) -> np.ndarray:
     return (hi - lo) / (edges[:, 1] - edges[:, 0])
 
 
+def line_widths(lines_nm) -> np.ndarray:
+    """Width in nm of each line's band (``band_edges``); a single line counts 1 nm (its value is per nm).
+    These are the widths by which FLUX SPECTRUM multiplies a spectrum's band means (compile/pack.py)."""
+    lines = np.asarray(lines_nm, float).reshape(-1)
+    return np.diff(band_edges(lines), axis=1)[:, 0] if len(lines) > 1 else np.ones(1)
+
+
+def solar_line_irradiance(lines_nm, tsi: float = DEFAULT_TSI) -> np.ndarray:
+    """Solar irradiance at 1 AU in each wavelength line's band, W/m2: what ``FLUX SPECTRUM sun`` of
+    ``SPECTRUM sun SOLAR TSI tsi`` puts on each line per m2 at 1 AU (the ASTM G173 reference scaled by
+    ``tsi / G173_TOTAL``, band mean (:func:`rebin`) times band width (:func:`line_widths`)).  Raises ValueError
+    when a band reaches outside the reference's 280-4000 nm or a line is repeated."""
+    lines = np.asarray(lines_nm, float).reshape(-1)
+    if lines.size == 0 or not np.all(np.isfinite(lines)):
+        raise ValueError("the wavelength lines must be finite numbers (at least one)")
+    if len(np.unique(lines)) != len(lines):
+        raise ValueError("the wavelength lines must be distinct")
+    if not (math.isfinite(tsi) and tsi > 0):
+        raise ValueError(f"the TSI must be a positive number of W/m2, got {tsi!r}")
+    w, v = solar_reference()
+    edges = band_edges(lines) if len(lines) > 1 else np.array([[lines[0], lines[0]]])
+    if edges.min() < w[0] - 1e-9 or edges.max() > w[-1] + 1e-9:
+        raise ValueError(f"the solar reference covers {w[0]:g}-{w[-1]:g} nm but the wavelength lines need "
+                         f"{edges.min():g}-{edges.max():g} nm")
+    return rebin(w, v * (tsi / G173_TOTAL), lines) * line_widths(lines)
+
+
 def solar_reference() -> tuple[np.ndarray, np.ndarray]:
     """ASTM G173-03 extraterrestrial spectrum, W/m2/nm at 1 AU (shipped from pvlib; see the CSV header)."""
     txt = resources.files("irtlang.data").joinpath("solar_astm_g173_etr.csv").read_text()

@@ -87,9 +87,11 @@ __all__ = [
     "NEWTON_MAX_IT",
     "hit_plane",
     "hit_conic",
+    "hit_conic_plain",
     "conic_sag",
     "conic_sag_deriv",
     "conic_normal",
+    "conic_normal_plain",
     "conic_domain_ok",
     "conic_residual",
     "hit_sphere",
@@ -170,7 +172,7 @@ def norm3(x, y, z):
     return m * math.sqrt(x * x + y * y + z * z)
 
 
-@numba.njit(cache=True, fastmath=False)
+@numba.njit(cache=True, fastmath=False, inline="always")
 def normalize3(x, y, z):
     """Unit vector along (x, y, z); the zero vector maps to (0, 0, 1)."""
     m = max(abs(x), abs(y), abs(z))
@@ -183,21 +185,21 @@ def normalize3(x, y, z):
     return x / n, y / n, z / n
 
 
-@numba.njit(cache=True, fastmath=False)
+@numba.njit(cache=True, fastmath=False, inline="always")
 def _finite_or_inf(t):
     if math.isfinite(t):
         return t
     return INF
 
 
-@numba.njit(cache=True, fastmath=False)
+@numba.njit(cache=True, fastmath=False, inline="always")
 def _sort2(t1, t2):
     if t2 < t1:
         return t2, t1
     return t1, t2
 
 
-@numba.njit(cache=True, fastmath=False)
+@numba.njit(cache=True, fastmath=False, inline="always")
 def solve_quadratic(a, b, c, d):
     """Roots of a t^2 + 2 b t + c = 0 given the discriminant d = b^2 - a c; sorted, inf where absent."""
     if not (d >= 0.0):  # also catches NaN
@@ -274,6 +276,20 @@ def conic_sag_deriv(r2, c, k, asph):
     return c / (2.0 * math.sqrt(arg)) + dp
 
 
+@numba.njit(cache=True, fastmath=False, inline="always")
+def _conic_normal_dp(x, y, c, q, dp):
+    m = c + 2.0 * q * dp
+    return normalize3(-x * m, -y * m, q)
+
+
+@numba.njit(cache=True, fastmath=False, inline="always")
+def _conic_q(x, y, c, k):
+    """r^2 and q = sqrt(1 - (1+k) c^2 r^2), clamped to 0 outside the domain."""
+    s = x * x + y * y
+    arg = 1.0 - (1.0 + k) * c * c * s
+    return s, (math.sqrt(arg) if arg > 0.0 else 0.0)
+
+
 @numba.njit(cache=True, fastmath=False)
 def conic_normal(x, y, c, k, asph):
     """Unit normal of the sag surface above (x, y), pointing towards +z at the vertex.
@@ -282,12 +298,17 @@ def conic_normal(x, y, c, k, asph):
     (-x (c + 2 q P'), -y (c + 2 q P'), q): finite even at an ellipsoid's equator (q = 0). Outside the
     domain q is clamped to 0.
     """
-    s = x * x + y * y
-    arg = 1.0 - (1.0 + k) * c * c * s
-    q = math.sqrt(arg) if arg > 0.0 else 0.0
+    s, q = _conic_q(x, y, c, k)
     _, dp = _asph_eval(s, asph)
-    m = c + 2.0 * q * dp
-    return normalize3(-x * m, -y * m, q)
+    return _conic_normal_dp(x, y, c, q, dp)
+
+
+@numba.njit(cache=True, fastmath=False, inline="always")
+def conic_normal_plain(x, y, c, k):
+    """``conic_normal`` of a conic without aspheric terms (bitwise the same result), inlined into its
+    callers: no array argument, no call."""
+    _s, q = _conic_q(x, y, c, k)
+    return _conic_normal_dp(x, y, c, q, 0.0)
 
 
 @numba.njit(cache=True, fastmath=False)
@@ -313,7 +334,7 @@ def conic_residual(x, y, z, c, k, asph):
     return (z - zc - p) * nz
 
 
-@numba.njit(cache=True, fastmath=False)
+@numba.njit(cache=True, fastmath=False, inline="always")
 def _conic_quadric_roots(ox, oy, oz, dx, dy, dz, c, k):
     """Roots of the conic quadric on the vertex sheet, sorted, inf where absent."""
     kk = 1.0 + k
@@ -371,7 +392,7 @@ def _asph_newton(ox, oy, oz, dx, dy, dz, c, k, asph, t0):
     return INF
 
 
-@numba.njit(cache=True, fastmath=False)
+@numba.njit(cache=True, fastmath=False, inline="always")
 def _closest_approach(ox, oy, oz, dx, dy, dz, cz):
     """Parameter t0 of the ray's closest approach to (0, 0, cz) and the point there."""
     dd = dx * dx + dy * dy + dz * dz
@@ -381,11 +402,9 @@ def _closest_approach(ox, oy, oz, dx, dy, dz, cz):
     return t0, ox + t0 * dx, oy + t0 * dy, oz + t0 * dz
 
 
-@numba.njit(cache=True, fastmath=False)
-def hit_conic(ox, oy, oz, dx, dy, dz, c, k, asph):
-    """Conic (+ even asphere) with vertex at the origin, axis +z: (t1, t2) sorted, inf where absent."""
-    if dx == 0.0 and dy == 0.0 and dz == 0.0:
-        return INF, INF
+@numba.njit(cache=True, fastmath=False, inline="always")
+def _conic_start(ox, oy, oz, dx, dy, dz, c, k):
+    """(t0, p): the point the conic's quadratic is solved from (see the module docstring)."""
     # solve from the ray's closest approach to the vertex: keeps the quadratic's coefficients of the
     # size of the problem when the origin is far away (their rounding scales like c |o|^2)
     t0, px, py, pz = _closest_approach(ox, oy, oz, dx, dy, dz, 0.0)
@@ -398,6 +417,30 @@ def hit_conic(ox, oy, oz, dx, dy, dz, c, k, asph):
             t0, px, py, pz = 0.0, ox, oy, oz
     else:
         t0, px, py, pz = 0.0, ox, oy, oz  # near enough, or moving away: keep the exact origin
+    return t0, px, py, pz
+
+
+@numba.njit(cache=True, fastmath=False, inline="always")
+def hit_conic_plain(ox, oy, oz, dx, dy, dz, c, k):
+    """``hit_conic`` of a conic without aspheric terms (bitwise the same roots), inlined into its callers:
+    no array argument, no call."""
+    if dx == 0.0 and dy == 0.0 and dz == 0.0:
+        return INF, INF
+    t0, px, py, pz = _conic_start(ox, oy, oz, dx, dy, dz, c, k)
+    t1, t2 = _conic_quadric_roots(px, py, pz, dx, dy, dz, c, k)
+    if t1 != INF:
+        t1 += t0
+    if t2 != INF:
+        t2 += t0
+    return _sort2(t1, t2)
+
+
+@numba.njit(cache=True, fastmath=False)
+def hit_conic(ox, oy, oz, dx, dy, dz, c, k, asph):
+    """Conic (+ even asphere) with vertex at the origin, axis +z: (t1, t2) sorted, inf where absent."""
+    if dx == 0.0 and dy == 0.0 and dz == 0.0:
+        return INF, INF
+    t0, px, py, pz = _conic_start(ox, oy, oz, dx, dy, dz, c, k)
     t1, t2 = _conic_quadric_roots(px, py, pz, dx, dy, dz, c, k)
     if asph.shape[0] != 0:
         if t1 == INF and t2 == INF:
@@ -438,8 +481,15 @@ def hit_sphere(ox, oy, oz, dx, dy, dz, R):
         # b == 0 and tangent through... only if c == 0 too (origin on sphere, tangent direction)
         return 0.0, 0.0
     t1 = _finite_or_inf(q / a)
-    t2 = _finite_or_inf(c / q)
-    return _sort2(t1, t2)
+    t2 = c / q
+    # the roots are -b/a +- sq/a; c and the geometric discriminant are rounded independently, so when q is
+    # as small as the rounding of c (a tangent ray leaving the sphere) c / q is noise over noise and can
+    # land anywhere (a spurious hit millimetres away): keep it inside the roots' interval
+    mid = -b / a
+    h = sq / a
+    if abs(t2 - mid) > h + 1e-15 * (abs(mid) + h):
+        t2 = mid + math.copysign(h, t2 - mid)
+    return _sort2(t1, _finite_or_inf(t2))
 
 
 @numba.njit(cache=True, fastmath=False)
@@ -559,23 +609,55 @@ def in_rect(x, y, hx, hy):
     return abs(x) <= hx and abs(y) <= hy
 
 
+_HYPOT_BAND = 1e-12   # relative band around r^2 inside which the aperture tests ask math.hypot
+
+
+@numba.njit(cache=True, fastmath=False, inline="always")
+def _hypot_side(x, y, r):
+    """-1 if math.hypot(x, y) < r for sure, +1 if > r for sure, 0 if x^2 + y^2 is too close to r^2 (or out of
+    the safe range) to tell.  x^2 + y^2 and r^2 carry a few ulps of rounding and hypot one ulp, so outside
+    the 1e-12 band the answer is the one math.hypot would give (a hypot costs ~20 ns; this, ~1 ns)."""
+    s = x * x + y * y
+    rr = r * r
+    if r >= 0.0 and rr >= 1e-250 and rr < INF:
+        if s < rr * (1.0 - _HYPOT_BAND):
+            return -1
+        if s > rr * (1.0 + _HYPOT_BAND):
+            return 1
+    return 0
+
+
 @numba.njit(cache=True, fastmath=False)
 def in_disk(x, y, r):
-    """x^2 + y^2 <= r^2."""
+    """math.hypot(x, y) <= r (x^2 + y^2 <= r^2), decided without hypot away from the edge."""
+    side = _hypot_side(x, y, r)
+    if side != 0:
+        return side < 0
     return math.hypot(x, y) <= r
 
 
 @numba.njit(cache=True, fastmath=False)
 def in_annulus(x, y, rin, rout):
-    """rin <= sqrt(x^2 + y^2) <= rout."""
+    """rin <= math.hypot(x, y) <= rout, decided without hypot away from the two edges."""
+    a = _hypot_side(x, y, rin)
+    b = _hypot_side(x, y, rout)
+    if a < 0 or b > 0:
+        return False
+    if a > 0 and b < 0:
+        return True
     rho = math.hypot(x, y)
     return rin <= rho and rho <= rout
 
 
 @numba.njit(cache=True, fastmath=False)
 def in_ellipse(x, y, a, b):
-    """(x/a)^2 + (y/b)^2 <= 1."""
-    return math.hypot(x / a, y / b) <= 1.0
+    """math.hypot(x/a, y/b) <= 1, decided without hypot away from the edge."""
+    xa = x / a
+    yb = y / b
+    side = _hypot_side(xa, yb, 1.0)
+    if side != 0:
+        return side < 0
+    return math.hypot(xa, yb) <= 1.0
 
 
 # ----------------------------------------------------------------------------------------------------

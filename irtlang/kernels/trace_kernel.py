@@ -32,7 +32,7 @@ import numba
 import numpy as np
 
 from .bvh import hit_mesh
-from .geometry import (conic_normal, drop_leaving_root, two_prod, ellipsoid_normal, hit_conic, hit_ellipsoid, hit_plane, hit_sphere, hit_tube,
+from .geometry import (conic_normal, conic_normal_plain, hit_conic_plain, drop_leaving_root, two_prod, ellipsoid_normal, hit_conic, hit_ellipsoid, hit_plane, hit_sphere, hit_tube,
                        in_annulus, in_disk, in_ellipse, in_rect, sphere_normal, tube_normal)
 from .optics import fresnel_unpolarized, refract
 from .rng import uniform2
@@ -51,10 +51,12 @@ F_SCATTER = True
 F_MAPS = True
 F_VOLUME = True
 F_IMPORTANCE = True
+F_SHELLS = True
 # ---- end of features ----
 
 CHUNK = 1024
 SMAX = 256          # pending paths per source ray (splitting, rays toward a target)
+NEE_STRAIGHT_DN = 1e-3   # rays sent toward a target cross index steps smaller than this without bending
 SW = 20             # stack entry: ph(3) pl(3) d(3) w w0 ev excl nee path flags jlast opl sx sy, then the history
 # ledger columns
 C_INC, C_REF, C_TRA, C_SCA, C_ABS = 0, 1, 2, 3, 4
@@ -95,17 +97,21 @@ def _sub(h, l, th, tl):
     return s + (e + (l - tl))
 
 
-# surface tables: s_f (n, 36) float columns and s_i (n, 5) int columns, laid out by irtlang.compile.pack
+# surface tables: s_f (n, 36) float columns and s_i (n, 6) int columns, laid out by irtlang.compile.pack
 SF_PAR, SF_ASPH, SF_AP, SF_R, SF_TH, SF_TL, SF_SIZE, SF_BS = 0, 6, 14, 16, 25, 28, 31, 32
-SI_KIND, SI_NASPH, SI_APK, SI_MESH, SI_OBJ = 0, 1, 2, 3, 4
+SI_KIND, SI_NASPH, SI_APK, SI_MESH, SI_OBJ, SI_AXIS = 0, 1, 2, 3, 4, 5   # SI_AXIS: 1 if R is the identity
+SI_FAM, SI_FIDX = 6, 7     # nested-shell family and index in it (-1: none; irtlang.compile.pack.shell_families)
 _NO_ASPH = np.zeros(0)
 
 
 @numba.njit(cache=True, inline="always")
-def _local(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, j):
+def _local(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, j):
     qx = _sub(phx, plx, f[j, SF_TH], f[j, SF_TL])
     qy = _sub(phy, ply, f[j, SF_TH + 1], f[j, SF_TL + 1])
     qz = _sub(phz, plz, f[j, SF_TH + 2], f[j, SF_TL + 2])
+    if si[j, SI_AXIS] == 1:
+        # an axis-aligned surface (R = I): the rotation would only multiply by 1 and add zeros
+        return qx, qy, qz, dx, dy, dz
     r = SF_R
     return (f[j, r] * qx + f[j, r + 3] * qy + f[j, r + 6] * qz, f[j, r + 1] * qx + f[j, r + 4] * qy + f[j, r + 7] * qz,
             f[j, r + 2] * qx + f[j, r + 5] * qy + f[j, r + 8] * qz, f[j, r] * dx + f[j, r + 3] * dy + f[j, r + 6] * dz,
@@ -113,7 +119,9 @@ def _local(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, j):
 
 
 @numba.njit(cache=True, inline="always")
-def _rot(f, j, x, y, z):
+def _rot(f, si, j, x, y, z):
+    if si[j, SI_AXIS] == 1:
+        return x, y, z
     r = SF_R
     return (f[j, r] * x + f[j, r + 1] * y + f[j, r + 2] * z, f[j, r + 3] * x + f[j, r + 4] * y + f[j, r + 5] * z,
             f[j, r + 6] * x + f[j, r + 7] * y + f[j, r + 8] * z)
@@ -154,8 +162,11 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, mesh_i, bmin, bmax
     bly = 0.0
     blz = 0.0
     bface = -1
+    fam_last = si[jlast, SI_FAM] if F_SHELLS and jlast >= 0 else -1
     for j in range(si.shape[0]):
-        ox, oy, oz, ldx, ldy, ldz = _local(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, j)
+        if F_SHELLS and fam_last >= 0 and si[j, SI_FAM] == fam_last and abs(si[j, SI_FIDX] - si[jlast, SI_FIDX]) > 1:
+            continue    # a nested shell beyond the neighbours of the one just crossed
+        ox, oy, oz, ldx, ldy, ldz = _local(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, j)
         k = si[j, SI_KIND]
         # bounding-sphere cull (unit direction): skip a surface the ray cannot reach, or not before best_t
         br = f[j, SF_BS + 3]
@@ -168,10 +179,16 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, mesh_i, bmin, bmax
             if cc > 0.0:
                 if bb > 0.0:
                     continue
-                disc = bb * bb - cc
+                # br^2 minus the squared distance of closest approach, from q's part across the ray: bb^2 - cc
+                # cancels for a small, far target (a 0.1 mm disk 100 km away was missed by a quarter of the
+                # rays sent TOWARD it; benchmarks/bench_mitsuba.py)
+                ex = qx - bb * ldx
+                ey = qy - bb * ldy
+                ez = qz - bb * ldz
+                disc = br * br - (ex * ex + ey * ey + ez * ez)
                 if disc < 0.0:
                     continue
-                if -bb - math.sqrt(disc) > best_t:
+                if best_t < np.inf and -bb - math.sqrt(disc) > best_t:
                     continue
         tmin = EPS_SELF * max(f[j, SF_SIZE], abs(ox), abs(oy), abs(oz))
         if F_MESH and k == 5:
@@ -191,6 +208,8 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, mesh_i, bmin, bmax
                 bface = b0 + face if face >= 0 else -1
             continue
         if k == 0:
+            if not ((oz > 0.0 and ldz < 0.0) or (oz < 0.0 and ldz > 0.0)):
+                continue        # the plane is behind, or parallel: hit_plane's root would be <= 0 or inf
             t1, t2 = hit_plane(ox, oy, oz, ldx, ldy, ldz)
         elif F_CONIC and k == 1:
             cq = f[j, SF_PAR]
@@ -204,6 +223,8 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, mesh_i, bmin, bmax
                 if not (t1 > 0.0) or not math.isfinite(t1) or 1.0 - kk * cq * (oz + t1 * ldz) < -1e-9:
                     t1 = np.inf
                 t2 = np.inf
+            elif si[j, SI_NASPH] == 0:
+                t1, t2 = hit_conic_plain(ox, oy, oz, ldx, ldy, ldz, cq, kq)     # inlined: no array, no call
             else:
                 t1, t2 = hit_conic(ox, oy, oz, ldx, ldy, ldz, cq, kq, _asph(f, si, j))
         elif F_QUADRIC and k == 2:
@@ -246,7 +267,10 @@ def _normal(j, k, lx, ly, lz, face, f, si, bvh_fn):
     if k == 0:
         nx, ny, nz = 0.0, 0.0, 1.0
     elif F_CONIC and k == 1:
-        nx, ny, nz = conic_normal(lx, ly, f[j, SF_PAR], f[j, SF_PAR + 1], _asph(f, si, j))
+        if si[j, SI_NASPH] == 0:
+            nx, ny, nz = conic_normal_plain(lx, ly, f[j, SF_PAR], f[j, SF_PAR + 1])
+        else:
+            nx, ny, nz = conic_normal(lx, ly, f[j, SF_PAR], f[j, SF_PAR + 1], _asph(f, si, j))
     elif F_QUADRIC and k == 2:
         nx, ny, nz = sphere_normal(lx, ly, lz)
     elif F_QUADRIC and k == 3:
@@ -257,7 +281,7 @@ def _normal(j, k, lx, ly, lz, face, f, si, bvh_fn):
         nx, ny, nz = bvh_fn[face, 0], bvh_fn[face, 1], bvh_fn[face, 2]
     else:
         nx, ny, nz = 0.0, 0.0, 1.0
-    return _rot(f, j, nx, ny, nz)
+    return _rot(f, si, j, nx, ny, nz)
 
 
 # ---------------------------------------------------------------------------------------------- maps
@@ -333,6 +357,17 @@ def _roulette(w, w0, halt, u):
 
 
 @numba.njit(cache=True, inline="always")
+def _nee_roulette(cw, ref, cut, u):
+    """Russian roulette of a ray sent toward a target (HALT ... IMPORTANCE cut): below cut times ref (what a
+    white Lambertian surface would send) it survives with probability cw / (cut ref), carrying cut ref;
+    unbiased, and the flux it would have carried is simply not sent (the ledger books only what is sent)."""
+    p = cw / (cut * ref)
+    if p >= 1.0:
+        return cw
+    return cut * ref if u < p else 0.0
+
+
+@numba.njit(cache=True, inline="always")
 def _toward(phx, phy, phz, plx, ply, plz, o_bc, o_br, tgt, u0, u1):
     """A direction uniform in the cone from p that holds the target's bounding sphere, and that cone's solid
     angle."""
@@ -388,22 +423,21 @@ def _turn(dx, dy, dz, mu, u):
 
 @numba.njit(cache=True, inline="always")
 def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random, src_toward,
-         src_pts, src_pts_off, o_bc, o_br):
+         src_pts, src_pts_off, o_bc, o_br, src_dw):
     """Ray i: (source, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, sx, sy); (sx, sy) is the start point
     in the source's own frame (the pupil coordinates of a GRID).  Ids past `total` start another
     pass over the sources (TRACE UNTIL ERROR) with fresh random numbers."""
-    ii = i % total
+    ii = i if i < total else i % total          # (integer divisions cost ~40 cycles: only when needed)
     s = 0
     while s + 1 < src_off.shape[0] and ii >= src_off[s + 1]:
         s += 1
     j = ii - src_off[s]
     n = src_n[s]
-    line = j // n
+    line = 0 if j < n else j // n
     q = j - line * n
     w = src_w[s, line]
     kind = src_kind[s]
     u0, u1 = uniform2(seed, i, 0, 0)
-    u2, u3 = uniform2(seed, i, 0, 1)
     # position in the source frame
     lx = 0.0
     ly = 0.0
@@ -454,8 +488,8 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
     ply += src_Tl[s, 1]
     plz += src_Tl[s, 2]
     dk = src_dir[s]
-    if dk == 0:  # collimated (given in the source frame)
-        ldx, ldy, ldz = src_par[s, 6], src_par[s, 7], src_par[s, 8]
+    if dk == 0:  # collimated: the world direction is the source's own (_collimated_dirs), the same every ray
+        return s, line, phx, phy, phz, plx, ply, plz, src_dw[s, 0], src_dw[s, 1], src_dw[s, 2], w, lx, ly
     elif dk == 1 or dk == 2:  # from / to a point
         vx = lx - src_par[s, 6]
         vy = ly - src_par[s, 7]
@@ -473,6 +507,7 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
         m = math.sqrt(tx * tx + ty * ty + 1.0)
         ldx, ldy, ldz = tx / m, ty / m, src_par[s, 8] / m
     else:  # Lambertian emitter (sphere, disk) or isotropic point
+        u2, u3 = uniform2(seed, i, 0, 1)      # the direction's numbers: drawn only by the sources that use them
         if kind == 4:
             ax, ay, az = src_par[s, 2], src_par[s, 3], src_par[s, 4]
         else:
@@ -516,11 +551,32 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
         dwy = x * t1y + y * t2y + z * nwy
         dwz = x * t1z + y * t2z + z * nwz
         return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w, lx, ly
+    dwx, dwy, dwz = _dir_to_world(src_R, s, ldx, ldy, ldz)
+    return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w, lx, ly
+
+
+@numba.njit(cache=True, inline="always")
+def _dir_to_world(src_R, s, ldx, ldy, ldz):
+    """A source-frame direction rotated to the world and normalized."""
     dwx = src_R[s, 0] * ldx + src_R[s, 1] * ldy + src_R[s, 2] * ldz
     dwy = src_R[s, 3] * ldx + src_R[s, 4] * ldy + src_R[s, 5] * ldz
     dwz = src_R[s, 6] * ldx + src_R[s, 7] * ldy + src_R[s, 8] * ldz
     m = math.sqrt(dwx * dwx + dwy * dwy + dwz * dwz)
-    return s, line, phx, phy, phz, plx, ply, plz, dwx / m, dwy / m, dwz / m, w, lx, ly
+    return dwx / m, dwy / m, dwz / m
+
+
+@numba.njit(cache=True)
+def _collimated_dirs(src_dir, src_par, src_R):
+    """(S, 3): each collimated source's world unit direction, computed once per batch (bitwise what _gen would
+    compute for every ray); zeros for the other sources."""
+    out = np.zeros((src_dir.shape[0], 3))
+    for s in range(src_dir.shape[0]):
+        if src_dir[s] == 0:
+            x, y, z = _dir_to_world(src_R, s, src_par[s, 6], src_par[s, 7], src_par[s, 8])
+            out[s, 0] = x
+            out[s, 1] = y
+            out[s, 2] = z
+    return out
 
 
 
@@ -580,7 +636,7 @@ def _push(stack, sp, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w0, ev, excl, 
 
 
 @numba.njit(cache=True, parallel=True)
-def trace_batch(first, n, total, seed, level, halt, r_imp,
+def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                 s_f, s_i, mesh_i, bmin, bmax, child, count, tris, ids, bvh_fn,
                 o_itf, o_coat, o_back, o_front, o_det, o_bc, o_br, o_sc_first, o_sc_cnt, sp_kind, sp_model, sp_map,
                 sp_cls_off, sp_cls_n, sp_rays, sp_tgt, cls_models, map_data, map_off, map_nlat, map_nlon,
@@ -605,6 +661,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
     cap = dep_idx.shape[1]
     rcap = rec_w.shape[1]
     H = rec_hist.shape[2]
+    src_dw = _collimated_dirs(src_dir, src_par, src_R)
     for c in numba.prange(nchunks):
         ndep = 0
         nrec = 0
@@ -620,40 +677,52 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
             i = first + ii
             s, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, sx0, sy0 = _gen(
                 i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random,
-                src_toward, src_pts, src_pts_off, o_bc, o_br)
+                src_toward, src_pts, src_pts_off, o_bc, o_br, src_dw)
             led[c, r_emit, C_INC, line] += w
             nt = 0
             dep0 = ndep
             for h in range(H):
                 hist[h] = -1.0
-            _push(stack, 0, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w, 0.0, -1.0, 0.0, 0.0, 0.0, -1.0, 0.0, sx0,
-                  sy0, hist, H)
-            sp = 1
+            # the source ray's own path starts from these locals; split paths and rays sent toward a target
+            # wait on the stack (the same state a push/pop would give, without the 2 x 20 memory moves)
+            w0 = w
+            ev = 0
+            excl = -1
+            nee = False
+            path = 0
+            flags = 0
+            jlast = -1
+            opl = 0.0
+            sp = 0
             npath = 1
-            while sp > 0:
-                sp -= 1
-                phx = stack[sp, 0]
-                phy = stack[sp, 1]
-                phz = stack[sp, 2]
-                plx = stack[sp, 3]
-                ply = stack[sp, 4]
-                plz = stack[sp, 5]
-                dx = stack[sp, 6]
-                dy = stack[sp, 7]
-                dz = stack[sp, 8]
-                w = stack[sp, 9]
-                w0 = stack[sp, 10]
-                ev = int(stack[sp, 11])
-                excl = int(stack[sp, 12])
-                nee = stack[sp, 13] > 0.0
-                path = int(stack[sp, 14])
-                flags = int(stack[sp, 15])
-                jlast = int(stack[sp, 16])
-                opl = stack[sp, 17]
-                sx0 = stack[sp, 18]
-                sy0 = stack[sp, 19]
-                for h in range(H):
-                    hist[h] = stack[sp, SW + h]
+            from_stack = False
+            while not from_stack or sp > 0:
+                if not from_stack:
+                    from_stack = True
+                else:
+                    sp -= 1
+                    phx = stack[sp, 0]
+                    phy = stack[sp, 1]
+                    phz = stack[sp, 2]
+                    plx = stack[sp, 3]
+                    ply = stack[sp, 4]
+                    plz = stack[sp, 5]
+                    dx = stack[sp, 6]
+                    dy = stack[sp, 7]
+                    dz = stack[sp, 8]
+                    w = stack[sp, 9]
+                    w0 = stack[sp, 10]
+                    ev = int(stack[sp, 11])
+                    excl = int(stack[sp, 12])
+                    nee = stack[sp, 13] > 0.0
+                    path = int(stack[sp, 14])
+                    flags = int(stack[sp, 15])
+                    jlast = int(stack[sp, 16])
+                    opl = stack[sp, 17]
+                    sx0 = stack[sp, 18]
+                    sy0 = stack[sp, 19]
+                    for h in range(H):
+                        hist[h] = stack[sp, SW + h]
                 last = -1
                 hx = phx + plx
                 hy = phy + ply
@@ -726,6 +795,9 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                                                     v0, v1)
                                         mu_ = dx * ox_ + dy * oy_ + dz * oz_
                                         cw = w * _phase(pk, gg, gam, mu_) * om / nr
+                                        if nee_cut > 0.0 and cw > 0.0:
+                                            cw = _nee_roulette(cw, w * om / (math.pi * nr), nee_cut,
+                                                               uniform2(seed, i, ev, path * 64 + 9 + 2 * q)[0])
                                         if cw > 0.0 and sp < SMAX:
                                             _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev,
                                                   -1.0, 1.0, npath, FL_SCATTERED, -1.0, opl, sx0, sy0, hist, H)
@@ -867,6 +939,13 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                             diffuse = Rb + Tb
                             if nee:
                                 T = _bsdf_direct(mk, Pm, line, cos_i)
+                            if F_REFRACT and it == 3 and med_n[m1, line] != med_n[m2, line]:
+                                # a slab on a boundary between two media (atmosphere shells): Fresnel
+                                # reflection at the boundary first, the slab takes the rest
+                                Rf = fresnel_unpolarized(cos_i, med_n[m1, line], med_n[m2, line])
+                                R = Rf
+                                T *= 1.0 - Rf
+                                diffuse *= 1.0 - Rf
                         else:
                             rho = min(1.0, Rb + Tb)
                             R *= (1.0 - rho)
@@ -882,6 +961,9 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                 co = ox_ * nvx + oy_ * nvy + oz_ * nvz
                                 f = _bsdf_eval(mk, Pm, line, -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz)
                                 cw = w * f * abs(co) * om / nr
+                                if nee_cut > 0.0 and cw > 0.0:
+                                    cw = _nee_roulette(cw, w * om / (math.pi * nr), nee_cut,
+                                                       uniform2(seed, i, ev, path * 64 + 9 + 2 * q)[0])
                                 if cw > 0.0 and sp < SMAX:
                                     if F_HISTORY and ev - 1 < H:
                                         hist[ev - 1] = o * 8 + EV_S
@@ -919,7 +1001,10 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                             if F_REFRACT and it >= 2:
                                 n1 = med_n[m1, line]
                                 n2 = med_n[m2, line]
-                                if n1 != n2:
+                                # rays aimed at a target cross weak index steps (gas layers) straight: their
+                                # bending (< NEE_STRAIGHT_DN tan(incidence)) would make them miss a target
+                                # a few picoradians wide (docs/tracer.md)
+                                if n1 != n2 and not (nee and abs(n1 - n2) < NEE_STRAIGHT_DN):
                                     dx, dy, dz, _tir = refract(dx, dy, dz, nwx, nwy, nwz, n1, n2)
                                     excl = -1
                         else:
@@ -937,6 +1022,10 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                                 v2, _v = uniform2(seed, i, ev, path * 64 + 2 + 2 * q)
                                 sx, sy, sz, sw, sdelta = _bsdf_sample(mk, Pm, line, wi_x, wi_y, wi_z, nvx, nvy, nvz,
                                                                       v0, v1, v2)
+                                if F_REFRACT and sdelta and it == 3 and med_n[m1, line] != med_n[m2, line]:
+                                    # a slab's unscattered beam crosses the boundary: Snell refraction
+                                    sx, sy, sz, _tir = refract(sx, sy, sz, nwx, nwy, nwz, med_n[m1, line],
+                                                               med_n[m2, line])
                                 cw = w * sw * tot / diffuse / nsplit
                                 wout += cw
                                 if sdelta:
@@ -975,6 +1064,7 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
                             dz /= m
                     if F_HISTORY and ev - 1 < H:
                         hist[ev - 1] = o * 8 + evkind
+                    jlast = j      # the surface just left: its departure root is dropped on the next search
                     # Russian roulette
                     if w > 0.0 and w < halt * w0:
                         ur, _u = uniform2(seed, i, ev, path * 64 + 63)
@@ -1029,13 +1119,33 @@ def trace_batch(first, n, total, seed, level, halt, r_imp,
 
 
 @numba.njit(cache=True)
-def reduce_batch(led, inc_sq, dep_idx, dep_w, dep_n, ledger, ledger_sq, img, img_sq):
-    """Add a batch's chunk tallies in chunk order (deterministic for any thread count)."""
+def reduce_batch(led, inc_sq, dep_idx, dep_w, dep_n, ledger, ledger_sq, img, img_sq, d_lo, d_npix, i_off, d_nb, d_fm,
+                 d_fm_off):
+    """Add a batch's chunk tallies in chunk order (deterministic for any thread count).  A deposit's index is
+    d_lo[d] + line * npix + pixel; a detector with filters (d_nb[d] = B > 0) adds w T[line, b] to each filter
+    image b (its (L, B) matrix at d_fm[d_fm_off[d]:]), else the deposit goes to the line's own image."""
+    nd = d_lo.shape[0]
     for c in range(led.shape[0]):
         ledger += led[c]
         ledger_sq += inc_sq[c]
         for q in range(dep_n[c]):
             k = dep_idx[c, q]
             w = dep_w[c, q]
-            img[k] += w
-            img_sq[k] += w * w
+            d = nd - 1
+            while d > 0 and k < d_lo[d]:
+                d -= 1
+            rel = k - d_lo[d]
+            B = d_nb[d]
+            if B == 0:
+                img[i_off[d] + rel] += w
+                img_sq[i_off[d] + rel] += w * w
+            else:
+                npx = d_npix[d]
+                line = rel // npx
+                pix = rel - line * npx
+                base = d_fm_off[d] + line * B
+                for b in range(B):
+                    wb = w * d_fm[base + b]
+                    if wb != 0.0:
+                        img[i_off[d] + b * npx + pix] += wb
+                        img_sq[i_off[d] + b * npx + pix] += wb * wb

@@ -14,7 +14,7 @@ from .diagnostics import Span, did_you_mean, error
 from .expr import evaluate, format_value
 from .spec import (MAX_REPEAT, Axis, Choice, Clause, Form, Name, Param, Path, PL, Ref, Rest, V, Variants, Vs,
                    match_keyword, nonneg, positive, unit_interval)
-from .units import ANGLE, INV_LENGTH, LENGTH, LENGTH_UNITS, NONE, POWER, Quantity
+from .units import ANGLE, INV_LENGTH, LENGTH, LENGTH_UNITS, NONE, POWER, TIME, Quantity
 from ..model import scene as M
 from ..plugins.bsdfs import REGISTRY as BSDFS
 from ..plugins.sources import REGISTRY as SOURCES, of_role
@@ -49,6 +49,18 @@ def usages(head: str) -> list[str]:
 @command("CALL", Form((Name("macro"), Rest("args"))), "control", "run a MACRO with arguments")
 def _call(it, b, st):
     it.call(b["macro"], b["args"], b.span, b.span_of("macro"))
+
+
+@command("DEFAULT", Form((Name("name"), Rest("value"))), "control",
+         "give a variable a value unless it has one already (irt run FILE --set name=value)")
+def _default(it, b, st):
+    if it.is_variable(b["name"]):
+        return
+    items = b["value"]
+    if len(items) != 1:
+        raise error(b.span, f"DEFAULT {b['name']} needs one value (an expression in parentheses for more)",
+                    f"DEFAULT {b['name']} (expression)")
+    it.assign(b["name"], evaluate(items[0], it.env), b.span)
 
 
 @command("INCLUDE", Form((Path("file"),)), "control", "run another script here (path relative to this file)")
@@ -104,6 +116,42 @@ def _reset(it, b, st):
     it.state.sources.clear()
     it.state.pending_grid = None
     it.step("RESET", {}, b.span, with_scene=False)
+
+
+@command("EPOCH", Form((Path("utc"),), (Clause("PLUS", (V("dt", TIME),), doc="a time added to the date"),)),
+         "system", "a date and time (UTC): sets the Sun's position and the Earth's sidereal angle as variables")
+def _epoch(it, b, st):
+    """EPOCH '2008-03-18T18:19' [PLUS 3 H] sets EPOCH_UTC and EPOCH_TAG (strings), GAST (Greenwich apparent
+    sidereal time), SUN_RA, SUN_DEC, SUBSOLAR_LAT, SUBSOLAR_LON (angles) and SUN_DIST (a length), from the
+    solar ephemeris of irtlang.earth.ephemeris (Meeus; 0.01 deg, years 1800-2200).  The frame of SUN_RA and
+    SUN_DEC is the equatorial frame of date (x to the equinox, z to the pole); an Earth-fixed frame turns from
+    it by GAST about z."""
+    import datetime as _dt
+
+    from ..earth.ephemeris import AU_M, YEAR_MAX, YEAR_MIN, sun_position
+
+    text = b["utc"].strip()
+    try:
+        t = _dt.datetime.fromisoformat(text.replace("Z", "").replace(" UTC", ""))
+    except ValueError:
+        raise error(b.span_of("utc"), f"EPOCH '{text}' is not a date and time",
+                    "write it as ISO 8601 UTC: '2008-03-18T18:19' or '2008-03-18 18:19:00'") from None
+    if t.tzinfo is not None:
+        t = t.astimezone(_dt.timezone.utc).replace(tzinfo=None)
+    if "dt" in b:
+        t = t + _dt.timedelta(seconds=float(b["dt"]))
+    if not YEAR_MIN <= t.year <= YEAR_MAX:
+        raise error(b.span_of("utc") if "dt" not in b else b.span, f"EPOCH {t:%Y-%m-%d %H:%M} is outside the solar "
+                    f"ephemeris' range (years {YEAR_MIN}-{YEAR_MAX})", "irtlang's ephemeris is Meeus' low-precision "
+                    "series (irtlang.earth.ephemeris), good to 0.01 deg only in that range")
+    sp = sun_position(t)
+    d = math.pi / 180.0
+    it.assign("EPOCH_UTC", t.strftime("%Y-%m-%dT%H:%M:%S"), b.span)
+    it.assign("EPOCH_TAG", t.strftime("%Y%m%dT%H%M"), b.span)
+    for name, v in (("GAST", sp.gast_deg), ("SUN_RA", sp.ra_deg), ("SUN_DEC", sp.dec_deg),
+                    ("SUBSOLAR_LAT", sp.subsolar_lat_deg), ("SUBSOLAR_LON", sp.subsolar_lon_deg)):
+        it.assign(name, Quantity(v * d, ANGLE), b.span)
+    it.assign("SUN_DIST", Quantity(sp.distance_au * AU_M, LENGTH), b.span)
 
 
 @command("UNITS", Form((Choice("unit", LENGTH_UNITS),)), "system", "the unit of bare lengths (default MM)")
@@ -299,7 +347,8 @@ def _model(it, b, st):
     it.define("model", name.upper(), M.ScatterModel(name, kind, M.frozen_params(params), b.span), b.span)
 
 
-MAP_DATASETS = ("LANDCOVER", "LAND_MASK", "CLOUD_FRACTION", "SNOW_FRACTION", "SEA_ICE_FRACTION", "ELEVATION")
+MAP_DATASETS = ("LANDCOVER", "LAND_MASK", "CLOUD_FRACTION", "SNOW_FRACTION", "SEA_ICE_FRACTION", "ELEVATION",
+                "CLOUD_LOW", "CLOUD_MIDDLE", "CLOUD_HIGH", "AEROSOL_TYPE")
 
 
 @command("MAP", Form((Name("name"), Variants("kind", {"LATLON": Form((Variants("from", {
@@ -435,8 +484,11 @@ def _rotate(it, b, st):
 
 
 @command("DETECTOR", Form((Choice("what", ("PIXELS",)), V("nx", integer=True), V("ny", integer=True, optional=True)),
-                          (Clause("QE", (PL("qe", check=unit_interval),), doc="quantum efficiency per line"),)),
-         "geometry", "the current object records an image of nx x ny pixels [QE per line]")
+                          (Clause("QE", (PL("qe", check=unit_interval),), doc="quantum efficiency per line"),
+                           Clause("FILTERS", (Param("filters", "refs", None, ns="spectrum"),),
+                                  doc="one image per filter: each line's flux times the filter's transmission "
+                                      "(SPECTRUM names)"))),
+         "geometry", "the current object records an image of nx x ny pixels [QE per line] [FILTERS: one per filter]")
 def _detector(it, b, st):
     obj = _current(it, b)
     nx = b["nx"]
@@ -452,7 +504,17 @@ def _detector(it, b, st):
         raise error(b.span, f"object {obj.name} has no aperture: the pixel grid needs its bounding rectangle",
                     "add RECT hx hy (or DISK r) to the surface")
     qe = b["qe"].values if "qe" in b else None
-    _update(it, obj, detector=M.Detector(nx, ny, b.span, qe))
+    filters = None
+    if "filters" in b:
+        filters = []
+        for key in b["filters"]:
+            sp = it.state.spectra[key]
+            t = tuple(float(v) for v in it.spectrum_on_lines(key, b.span_of("filters")))
+            if any(v < 0 for v in t):
+                raise error(b.span_of("filters"), f"filter {sp.name} has a negative transmission")
+            filters.append((sp.name, t))
+        filters = tuple(filters)
+    _update(it, obj, detector=M.Detector(nx, ny, b.span, qe, filters))
 
 
 @command("GROUP", Form((Name("name"),)), "geometry", "objects up to END GROUP live in the group's own frame")
@@ -484,8 +546,10 @@ def _place(it, b, st):
     g = it.state.groups[key]
     if key in it.state.group_stack:
         raise error(b.span_of("group"), f"GROUP {g.name} cannot be placed inside itself")
-    if g.placed is not None:
-        raise error(b.span, f"GROUP {g.name} is already placed", notes=[(g.placed, "placed here")])
+    if g.placed is not None and it.state.placed_trace.get(key) == it.state.traces:
+        raise error(b.span, f"GROUP {g.name} is already placed", notes=[(g.placed, "placed here")],
+                    hint="a group may be placed again only after a TRACE (it moves between traces)")
+    it.state.placed_trace[key] = it.state.traces
     at = tuple(b["at"])
     R = M.IDENTITY.R
     if "aim" in b:
@@ -573,10 +637,14 @@ def _level(it, b, st):
     it.state.level = b["level"]
 
 
-@command("HALT", Form((V("halt", check=lambda x: None if 0 <= x < 1 else "must be in [0, 1)"),)), "trace",
-         "below this share of its starting flux a ray plays Russian roulette")
+@command("HALT", Form((V("halt", check=lambda x: None if 0 <= x < 1 else "must be in [0, 1)"),), (
+    Clause("IMPORTANCE", (V("cut", check=lambda x: None if 0 <= x <= 1 else "must be in [0, 1]"),),
+           doc="rays sent TOWARD a target play roulette below c times a white Lambertian surface's ray"),)), "trace",
+         "below this share of its starting flux a ray plays Russian roulette [IMPORTANCE c: rays toward targets too]")
 def _halt(it, b, st):
     it.state.halt = b["halt"]
+    if "cut" in b:
+        it.state.importance_cut = b["cut"]
 
 
 @command("TRACE", Form((), (Clause("UNTIL", (Choice("what", ("ERROR",)), V("error", check=lambda x: None if 0 < x < 1 else "must be between 0 and 100%"),
@@ -607,6 +675,7 @@ def _trace(it, b, st):
     it.step("TRACE", {"level": s.level, "halt": s.halt, "until_error": b.get("error"), "until_target": b.get("target")},
             b.span)
     s.sources.clear()
+    s.traces += 1
 
 
 def _check_scene(it, b) -> None:
@@ -791,15 +860,25 @@ def _focus(it, b, st):
 
 
 @command("EXPORT", Form((Ref("object", "object"), Path("file")), (
-    Clause("DIFFRACTION", (), doc="the detector image convolved with the last PSF's diffraction kernel"),)),
+    Clause("DIFFRACTION", (), doc="the detector image convolved with the last PSF's diffraction kernel"),
+    Clause("FILTER", (Ref("filter", "spectrum"),), doc="only that filter's image (a DETECTOR with FILTERS)"))),
          "analysis", "write the object's image: .fits .png .npy .csv by extension")
 def _export(it, b, st):
     f = b["file"]
     ext = f.rsplit(".", 1)[-1].lower() if "." in f else ""
     if ext not in ("fits", "fit", "png", "npy", "csv"):
         raise error(b.span_of("file"), f"EXPORT cannot write '.{ext}' files", "use .fits, .png, .npy or .csv")
-    it.step("EXPORT", {"object": b["object"], "file": f, **({"diffraction": True} if "diffraction" in b else {})},
-            b.span)
+    extra = {"diffraction": True} if "diffraction" in b else {}
+    if "filter" in b:
+        obj = it.state.objects.get(b["object"])
+        det = obj.detector if obj is not None else None
+        names = [n.upper() for n, _ in det.filters] if det is not None and det.filters else []
+        if b["filter"] not in names:
+            raise error(b.span_of("filter"), f"object {obj.name if obj else b['object']} has no filter "
+                        f"{it.state.spectra[b['filter']].name}" + (f" (its filters: {', '.join(n for n, _ in det.filters)})"
+                                                                  if names else " (its DETECTOR has no FILTERS)"))
+        extra["filter"] = names.index(b["filter"])
+    it.step("EXPORT", {"object": b["object"], "file": f, **extra}, b.span)
 
 
 def _odd_size(x):
@@ -825,7 +904,7 @@ def _psf(it, b, st):
     it.step("PSF", {"file": f, "object": b.get("object"), "pad": b.get("pad"), "size": b.get("size")}, b.span)
 
 
-ANALYSES = ("RGB", "PSF", "MTF", "ESF", "DEFOCUS", "DISK", "SPECTRUM")
+ANALYSES = ("RGB", "PSF", "MTF", "ESF", "DEFOCUS", "DISK", "SPECTRUM", "SERIES", "ANIMATE")
 
 
 def analysis_argv(it, what: str, items) -> list:

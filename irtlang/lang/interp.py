@@ -61,6 +61,9 @@ class State:
     group_stack: list = field(default_factory=list)
     level: int = 1000
     halt: float = 1e-6
+    importance_cut: float = 0.0
+    traces: int = 0                            # TRACE commands so far (a group may move between them)
+    placed_trace: dict = field(default_factory=dict)   # group key -> the value of traces when it was placed
     first_per_line: Span | None = None         # first wavelength-dependent definition
     failed: set = field(default_factory=set)   # (namespace, key) of definitions that failed
 
@@ -68,7 +71,7 @@ class State:
         fp = M.frozen_params
         return M.Scene(self.units, self.wavelengths_nm, self.seed, fp(self.media), fp(self.coatings),
                        fp(self.spectra), fp(self.models), fp(self.maps), fp(self.objects), fp(self.groups),
-                       tuple(self.sources))
+                       tuple(self.sources), self.importance_cut)
 
 
 NAMESPACES = ("medium", "coating", "spectrum", "model", "map", "object", "group")
@@ -117,6 +120,19 @@ class Interpreter(BindContext):
             self.finish()
         except StopScript:
             pass
+
+    def preset(self, assignments) -> None:
+        """Variables given on the command line (`irt run FILE --set name=value`), before the script runs; the
+        script's `DEFAULT name value` keeps them.  Each is parsed as the assignment `name = value`."""
+        if not assignments:
+            return
+        text = "\n".join(a.replace("=", " = ", 1) if "=" in a else a for a in assignments) + "\n"
+        src = Source("<--set>", text)
+        self.sources.append(src)
+        prog = parse_source(src, self.is_macro_head)
+        self.exec_block(prog.stmts)
+        if self.diags:
+            raise IrtError(self.diags.items)
 
     def run_text(self, text: str, name: str = "<input>") -> None:
         self.run_source(Source(name, text))
@@ -454,9 +470,10 @@ def _display(p: Path) -> str:
         return str(p)
 
 
-def check_file(path: str | Path) -> Interpreter:
+def check_file(path: str | Path, presets=()) -> Interpreter:
     """Parse and validate a script; raise IrtError with every diagnostic if it has any."""
     it = Interpreter(check_only=True)
+    it.preset(presets)
     it.run_file(path)
     if it.diags:
         raise IrtError(it.diags.items)

@@ -161,6 +161,7 @@ class Detector:
     ny: int
     span: Span = NO_SPAN
     qe: tuple | None = None     # quantum efficiency per line, applied to the image
+    filters: tuple | None = None    # ((name, transmission per line), ...): one image per filter
 
 
 @dataclass(frozen=True)
@@ -216,6 +217,7 @@ class Scene:
     objects: Mapping = field(default_factory=frozen_params)   # in definition order
     groups: Mapping = field(default_factory=frozen_params)
     sources: tuple = ()
+    importance_cut: float = 0.0     # HALT ... IMPORTANCE c: roulette of rays sent toward targets
 
     @property
     def n_lines(self) -> int:

@@ -179,7 +179,7 @@ def test_completion_keywords_and_names(session):
     assert session.complete("SHOW OBJ") == ["OBJECTS"]
     feed_all(session, "SURFACE", "PLANE Z 0 DISK 5", "OBJECT fpa", "SURFACE", "PLANE Z 1 DISK 5",
              "OBJECT 'Primary mirror'", "focal = 3")
-    assert sorted(session.complete("EXPORT f")) == ["focal", "fpa"]
+    assert sorted(session.complete("EXPORT f")) == ["FILTER", "focal", "fpa"]   # EXPORT ... FILTER clause too
     assert session.complete("CONSIDER ONLY fp") == ["fpa"]
     assert session.complete("EXPORT Pri") == ["'Primary mirror'"]      # names that need quotes get them
     assert session.complete("x = 1 ; EXPORT fp") == ["fpa"]

@@ -30,7 +30,6 @@ import math
 
 import numba
 import numpy as np
-from scipy import integrate
 
 from ...lang.diagnostics import error
 from ...lang.spec import Clause, Form, PL, nonneg, positive
@@ -67,6 +66,8 @@ def normal_albedo(a: float, b: float, g: float) -> float:
     """2 pi A int_0^1 r / (B + r^g) dr: the albedo at normal incidence (the largest)."""
     scale = _shoulder(b, g)
     pts = [p for p in (scale, 10 * scale) if 0 < p < 1]
+    from scipy import integrate   # here, not at import: scipy costs every `irt run` ~0.3 s of start-up
+
     v = integrate.quad(lambda r: r / (b + r ** g), 0.0, 1.0, points=pts or None, limit=200,
                        epsabs=1e-13, epsrel=1e-11)[0]
     return 2.0 * math.pi * float(a) * v   # a plain float: an enormous A gives inf (refused), not a warning

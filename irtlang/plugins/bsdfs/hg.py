@@ -39,11 +39,10 @@ import math
 
 import numba
 import numpy as np
-from scipy import special
 
 from ...lang.spec import Clause, Form, PL, V, nonneg, positive, unit_interval
 from ...kernels.sampling import hg_sample
-from ._common import (slab_scatter, INV_4PI, INV_PI, MU_MIN, slab_albedo, slab_delta_prob, slab_direct, slab_geometry,
+from ._common import (slab_scatter, INV_4PI, INV_PI, MU_MIN, slab_albedo_lines, slab_delta_prob, slab_direct, slab_geometry,
                       table_interp, table_mu_nodes)
 
 MAX_ORDERS = 32
@@ -88,6 +87,8 @@ def hg_ring_mean(g, c0, c1):
     A = 1.0 + g * g - 2.0 * g * c0
     B = np.abs(2.0 * g * c1)
     m = np.where(A + B > 0, 2.0 * B / (A + B), 0.0)
+    from scipy import special   # here, not at import (start-up time)
+
     return (1.0 - g * g) * 2.0 * special.ellipe(np.clip(m, 0.0, 1.0)) / (np.pi * (A - B) * np.sqrt(A + B))
 
 
@@ -113,13 +114,15 @@ def pack(params, n_lines: int) -> np.ndarray:
     N = int(params.get("orders", 4))
     P[3] = N
     mu = table_mu_nodes(NT, T0 * T0)
-    cache = {}
-    for k in range(n_lines):
-        key = (P[0, k], P[1, k], P[2, k])
-        if key not in cache:
-            avg = _phase_avg_factory(P[0, k], order_weights(P[2, k], N))
-            cache[key] = slab_albedo(avg, P[1, k], P[2, k], mu)
-        P[ROW_R:ROW_R + NT, k], P[ROW_T:ROW_T + NT, k] = cache[key]
+    # lines sharing g and w share the phase function: one vectorized table computation over their taus
+    gw, inv = np.unique(P[[0, 2]].T, axis=0, return_inverse=True)
+    inv = np.ravel(inv)
+    for q, (g, w) in enumerate(gw):
+        ks = np.nonzero(inv == q)[0]
+        avg = _phase_avg_factory(g, order_weights(w, N))
+        R, T = slab_albedo_lines(avg, P[1, ks], w, mu)
+        P[ROW_R:ROW_R + NT, ks] = R.T
+        P[ROW_T:ROW_T + NT, ks] = T.T
     return P
 
 

@@ -38,7 +38,7 @@ import numba
 import numpy as np
 
 from ...lang.spec import Clause, Form, PL, V, nonneg, unit_interval
-from ._common import (slab_scatter, INV_4PI, INV_PI, MU_MIN, slab_albedo, slab_delta_prob, slab_direct, slab_geometry,
+from ._common import (slab_scatter, INV_4PI, INV_PI, MU_MIN, slab_albedo_lines, slab_delta_prob, slab_direct, slab_geometry,
                       table_interp, table_mu_nodes)
 
 KIND = "RAYLEIGH"
@@ -91,12 +91,10 @@ def pack(params, n_lines: int) -> np.ndarray:
     P[2] = gamma
     mu = table_mu_nodes(NT, T0 * T0)
     avg = _phase_avg_factory(gamma)
-    cache = {}
-    for k in range(n_lines):
-        key = (P[0, k], P[1, k])
-        if key not in cache:
-            cache[key] = slab_albedo(avg, P[0, k], P[1, k], mu)
-        P[ROW_R:ROW_R + NT, k], P[ROW_T:ROW_T + NT, k] = cache[key]
+    # every line shares the phase function and the tables are linear in w: one computation over the taus
+    R, T = slab_albedo_lines(avg, P[0], 1.0, mu)
+    P[ROW_R:ROW_R + NT] = (R * P[1][:, None]).T
+    P[ROW_T:ROW_T + NT] = (T * P[1][:, None]).T
     return P
 
 

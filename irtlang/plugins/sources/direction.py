@@ -6,6 +6,8 @@ Gives the rays of the preceding GRID one direction (collimated).  The vector nee
 |---|---|---|
 | dx dy dz | 1 | direction cosines (any length > 0) |
 """
+import math
+
 from ...lang.diagnostics import error
 from ...lang.spec import Form, Vs
 
@@ -17,7 +19,9 @@ EXAMPLE = "GRID RECT Z 0 -1 1 -1 1 3 3\nSOURCE DIRECTION 0 0 1"
 
 def build(b, ctx) -> dict:
     d = b["direction"]
-    n = sum(x * x for x in d) ** 0.5
-    if n == 0:
+    m = max(abs(x) for x in d)
+    if m == 0 or not math.isfinite(m):
         raise error(b.span_of("direction"), "SOURCE DIRECTION needs a non-zero vector")
+    d = [x / m for x in d]      # to O(1) first: 1e300 would overflow the squares, 1e-310 lose its digits
+    n = math.hypot(*d)
     return {"direction": tuple(x / n for x in d)}

@@ -11,6 +11,8 @@ toward the target, weighted by the solid angle it subtends.
 | AXIS | 1 | cone axis (default 0 0 1) |
 | TOWARD | object | importance target |
 """
+import math
+
 from ...lang.diagnostics import error
 from ...lang.spec import Clause, Form, V, Vs
 from ...lang.units import ANGLE, LENGTH
@@ -26,8 +28,10 @@ EXAMPLE = "EMITTING POINT 0 0 0 RAYS 1000 CONE 5 AXIS 0 0 1"
 
 def build(b, ctx) -> dict:
     ax = tuple(b.get("axis", (0.0, 0.0, 1.0)))
-    n = sum(x * x for x in ax) ** 0.5
-    if n == 0:
+    m = max(abs(x) for x in ax)
+    if m == 0 or not math.isfinite(m):
         raise error(b.span_of("axis"), "AXIS needs a non-zero vector")
+    ax = tuple(x / m for x in ax)   # to O(1) first: 1e300 would overflow the squares, 1e-310 lose its digits
+    n = math.hypot(*ax)
     return {"position": (b["x"], b["y"], b["z"]), "rays": b["rays"], "cone": b.get("cone", 3.141592653589793),
             "axis": tuple(x / n for x in ax), "toward": b.get("toward")}

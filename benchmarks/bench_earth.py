@@ -1,0 +1,78 @@
+"""Hook for the Earth-frame benchmark (issue #8, item 1c): one frame of the flagship examples_scripts/earth.inr.
+
+Run: ``python -m benchmarks.bench_earth [--quick]`` (also part of ``python -m benchmarks``).
+
+This module only times a whole ``irt run`` of one frame (``--set hours=1``) with the script's own defaults
+otherwise; the Earth model and its accuracy checks belong to the Earth work (docs/earth.md).  While
+examples_scripts/earth.inr does not exist the benchmark is skipped with a note in the report; with ``--quick`` it
+is skipped too (a frame takes minutes).  ``earth_frame`` is the function to extend with the frame's metrics
+(rays/s, disk-integrated flux against the Lambert oracle, noise per pixel) once the Earth lands.
+"""
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+from ._common import ROOT, python_child
+
+SCRIPT = ROOT / "examples_scripts" / "earth.inr"
+SETTINGS = ("hours=1",)
+TIMEOUT_S = 1800
+
+
+def earth_frame(script: Path = SCRIPT, settings=SETTINGS, timeout: int = TIMEOUT_S) -> dict:
+    """Wall time of one `irt run` of the Earth script (one frame), the working tree's code, the warm Numba cache.
+    Returns {"s": seconds, "rc": exit status, "tail": the last lines of its output}."""
+    args = ["run", str(script)]
+    for s in settings:
+        args += ["--set", s]
+    with tempfile.TemporaryDirectory() as out:
+        t0 = time.perf_counter()
+        p = python_child("import sys; from irtlang.cli import main; sys.exit(main())", *args, "--out", out,
+                         timeout=timeout)
+        t = time.perf_counter() - t0
+    tail = "\n".join((p.stdout + p.stderr).strip().splitlines()[-8:])
+    return {"s": t, "rc": p.returncode, "tail": tail}
+
+
+def run(quick: bool = False) -> dict:
+    if not SCRIPT.exists():
+        return {"skipped": f"{SCRIPT.relative_to(ROOT)} does not exist yet (the Earth system model has not landed)"}
+    if quick:
+        return {"skipped": "not run with --quick (one Earth frame takes minutes)"}
+    r = earth_frame()
+    r["settings"] = list(SETTINGS)
+    return r
+
+
+def report(r: dict) -> str:
+    lines = ["## Earth frame (hook)", ""]
+    if "skipped" in r:
+        return "\n".join(lines + [f"Skipped: {r['skipped']}.", ""])
+    status = "ok" if r["rc"] == 0 else f"failed (exit {r['rc']})"
+    lines += [f"`irt run examples_scripts/earth.inr --set {' --set '.join(r['settings'])}`: {r['s']:.1f} s, {status}.  "
+              "Only the wall time is measured here (benchmarks/bench_earth.py: earth_frame is the hook for the "
+              "frame's metrics).", "", "```", r["tail"], "```", ""]
+    return "\n".join(lines)
+
+
+def readme_rows(r: dict) -> list:
+    if "skipped" in r or r.get("rc"):
+        return []
+    return [("one Earth frame, `irt run examples_scripts/earth.inr --set hours=1` (whole process)", f"{r['s']:.0f} s",
+             "-")]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--quick", action="store_true")
+    a = ap.parse_args(argv)
+    r = run(a.quick)
+    print(report(r))
+    return r
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,263 @@
+"""The flagship run, examples_scripts/earth.inr: a whole Earth seen by the EPOXI HRI on 18-19 March 2008.
+
+Oracles (../shared/ORACLES.md): a 21 um pixel at 10.5 m is 2.000 urad, so at 0.1838 AU a pixel is 55.0 km and the
+Earth's polar diameter (2 x 6356.752 km) is 231 px; the illuminated fraction at 57.7 deg phase is
+(1 + cos a) / 2 = 0.767; EPOXI's Lambert-fit geometric albedos were 0.14 (950 nm) to 0.35 (350 nm), i.e. apparent
+albedos (flux over that of an albedo-1 Lambert sphere = 1.5 p) of 0.21 to 0.53, with the disk blue below 600 nm
+and a vegetation red edge.
+
+The fast tier runs the script itself with few rays: one frame of the bare Lambert ellipsoid (`earth_model =
+'lambert'`: the same ephemeris, observer, telescope and focal plane, a fast geometry check) and one frame each of
+the full Earth over the Pacific (hour 0 of the run) and over Africa and Europe (hour 12).  The slow tier runs
+the default 25-frame day.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.ndimage as ndi
+
+from analysis.disk import disk_metrics
+from irtlang.cli import main as irt_main
+from irtlang.earth.ephemeris import sun_position
+from irtlang.lang.diagnostics import IrtError
+from irtlang.lang.interp import Interpreter
+
+ROOT = Path(__file__).resolve().parents[2]
+EARTH = ROOT / "examples_scripts" / "earth.inr"
+BANDS = (350, 450, 550, 650, 750, 850, 950)
+A_WGS84, C_WGS84 = 6378.137, 6356.752
+EPOXI_APPARENT = (1.5 * 0.14, 1.5 * 0.35)      # apparent albedo range from the Lambert-fit geometric albedos
+
+
+def run_earth(out: Path, *sets: str) -> Path:
+    code = irt_main(["run", str(EARTH), "--out", str(out), *sum((["--set", s] for s in sets), [])])
+    assert code == 0, f"irt run earth.inr {sets} exited with {code}"
+    return out
+
+
+def frame(out: Path, tag: str, band: int) -> np.ndarray:
+    a = np.load(out / "frames" / f"{tag}_{band}nm.npy")
+    assert a.shape == (1, 1024, 1024) and np.all(np.isfinite(a)) and np.all(a >= 0)
+    return a[0]
+
+
+def spectra(out: Path) -> dict:
+    rows = list(csv.DictReader((out / "disk_spectra.csv").open()))
+    assert rows and list(rows[0]) == ["time_utc", "wavelength_nm", "flux_W", "stderr_W", "apparent_albedo"]
+    by_time: dict = {}
+    for r in rows:
+        by_time.setdefault(r["time_utc"], []).append([float(r[k]) for k in list(r)[1:]])
+    return {t: np.array(v) for t, v in by_time.items()}
+
+
+def band_mean(s: np.ndarray, lo: float, hi: float) -> tuple[float, float]:
+    """Mean apparent albedo over lines in [lo, hi] nm and its standard error (albedo error ~ flux error)."""
+    m = (s[:, 0] >= lo) & (s[:, 0] <= hi)
+    a = s[m, 3]
+    rel = s[m, 2] / np.where(s[m, 1] > 0, s[m, 1], np.inf)
+    return float(a.mean()), float(np.sqrt(np.sum((a * rel) ** 2)) / m.sum())
+
+
+def ledger_gap(path: Path) -> float:
+    rows = list(csv.DictReader(path.open()))
+    emitted = next(float(r["incident_W"]) for r in rows if r["object"] == "EMITTED")
+    return abs(sum(float(r["absorbed_W"]) for r in rows) - emitted) / emitted
+
+
+# ------------------------------------------------------------------------------------------- script level
+def test_shipped_includes_are_what_the_generator_writes(tmp_path):
+    from irtlang.earth.models import write_earth_includes
+
+    lines = np.linspace(300.0, 2500.0, 295)
+    files = write_earth_includes(tmp_path, lines, clamp=True)
+    for name, p in files.items():
+        assert (EARTH.parent / "earth" / name).read_text() == p.read_text(), \
+            f"examples_scripts/earth/{name} is stale: run python examples_scripts/earth/make_includes.py"
+
+
+def _interp(text: str, tmp_path) -> Interpreter:
+    f = tmp_path / "t.inr"
+    f.write_text(text)
+    it = Interpreter(check_only=True)
+    it.run_file(f)
+    if it.diags:
+        raise IrtError(it.diags.items)
+    return it
+
+
+def test_epoch_sets_the_ephemeris(tmp_path):
+    import datetime as dt
+
+    it = _interp("EPOCH '2008-03-18T18:19' PLUS (3 * 1 H)\n", tmp_path)
+    sp = sun_position(dt.datetime(2008, 3, 18, 21, 19))
+    d = math.pi / 180
+    assert it.lookup("EPOCH_TAG") == "20080318T2119"
+    assert it.lookup("EPOCH_UTC") == "2008-03-18T21:19:00"
+    assert it.lookup("GAST").value == pytest.approx(sp.gast_deg * d, abs=1e-12)
+    assert it.lookup("SUN_RA").value == pytest.approx(sp.ra_deg * d, abs=1e-12)
+    assert it.lookup("SUN_DEC").value == pytest.approx(sp.dec_deg * d, abs=1e-12)
+    assert it.lookup("SUN_DIST").value == pytest.approx(sp.distance_au * 1.495978707e11, rel=1e-12)
+    # the March equinox of 2008 was on 20 March 05:48 UTC: two days before, the Sun is 0.8 deg south
+    assert -0.9 < sp.dec_deg < -0.5
+
+
+@pytest.mark.parametrize("text, message", [
+    ("EPOCH '1700-03-18T18:19'\n", "outside the solar ephemeris' range (years 1800-2200)"),
+    ("EPOCH '2199-12-31T23:00' PLUS 2 H\n", "outside the solar ephemeris' range"),
+    ("EPOCH '18 March 2008'\n", "is not a date and time"),
+])
+def test_epoch_bad_input(tmp_path, text, message):
+    with pytest.raises(IrtError) as e:
+        _interp(text, tmp_path)
+    assert message in e.value.diagnostics[0].message
+
+
+def test_data_file_missing_or_on_the_wrong_grid(tmp_path):
+    with pytest.raises(IrtError) as e:
+        _interp("MAP clouds LATLON 'no_such_clouds.npy'\n", tmp_path)
+    assert "file not found: 'no_such_clouds.npy'" in e.value.diagnostics[0].message
+    np.save(tmp_path / "bad.npy", np.zeros((180, 180), np.float32))
+    with pytest.raises(IrtError) as e:
+        _interp("MAP clouds LATLON 'bad.npy'\n", tmp_path)
+    assert "has shape (180, 180)" in e.value.diagnostics[0].message
+
+
+def test_band_outside_the_spectral_range(tmp_path):
+    """The HRI filter and QE tables reach 290-2600 nm: lines beyond them are refused at the SPECTRUM line; an
+    EXPORT of a filter the detector does not have is refused too."""
+    (tmp_path / "data").symlink_to(EARTH.parent / "data")
+    for f in ("cassegrain.inr", "cassegrain_design.inr"):
+        (tmp_path / f).symlink_to(EARTH.parent / f)
+    with pytest.raises(IrtError) as e:
+        _interp("WAVELENGTHS RANGE 300 3000 50 NM\nspacing_delta = 0\nband = 'all'\nINCLUDE 'cassegrain.inr'\n",
+                tmp_path)
+    assert "covers 290-2600 nm but the wavelength lines need" in e.value.diagnostics[0].message
+    with pytest.raises(IrtError) as e:
+        _interp("WAVELENGTHS 450 550 NM\nspacing_delta = 0\nband = 'all'\nINCLUDE 'cassegrain.inr'\n"
+                "SPECTRUM other TABLE 'data/hri_vis_filter_clear.csv'\nEXPORT fpa 'x.npy' FILTER other\n", tmp_path)
+    assert "object fpa has no filter other" in e.value.diagnostics[0].message
+
+
+def test_earth_model_choice_is_checked(tmp_path):
+    assert irt_main(["check", str(EARTH), "--set", "earth_model='marble'"]) == 2
+
+
+# ------------------------------------------------------------------------------------------- geometry
+@pytest.fixture(scope="module")
+def lambert_run(tmp_path_factory):
+    return run_earth(tmp_path_factory.mktemp("earth_lambert"), "hours=1", "sun_rays=4000", "save_rays=0",
+                     "earth_model='lambert'")
+
+
+def test_disk_size_scale_and_phase(lambert_run):
+    """Limb ellipse of the seven bands' sum (smoothed by 1 px against the Monte Carlo noise)."""
+    img = sum(frame(lambert_run, "20080318T1819", b) for b in BANDS)
+    m = disk_metrics(ndi.gaussian_filter(img, 1.0), radius_km=A_WGS84)
+    assert m["polar_diameter_px"] == pytest.approx(231.0, abs=3.0)
+    assert m["km_per_px"] == pytest.approx(55.0, abs=0.5)
+    assert m["illuminated_fraction"] == pytest.approx(0.76, abs=0.02)
+    # north is up in the sky (UP 0 0 1); the polar axis is the ellipse's minor axis
+    assert abs(abs(m["angle_deg"]) % 180.0) < 5.0 or abs(abs(m["angle_deg"]) % 180.0 - 180.0) < 5.0
+
+
+def test_lambert_ellipsoid_albedo(lambert_run):
+    """The bare ellipsoid of albedo 0.3 seen through the whole pipeline (Sun, ephemeris, observer, pupil, series):
+    its apparent albedo is 0.3 within its standard error (5 sigma) plus the ellipsoid's departure from the
+    sphere of radius sqrt(a c) (0.2 %)."""
+    s = next(iter(spectra(lambert_run).values()))
+    m = (s[:, 0] >= 400) & (s[:, 0] <= 900)
+    a, se = band_mean(s, 400, 900)
+    assert a == pytest.approx(0.3, abs=5 * se + 0.3 * 0.004)
+    assert ledger_gap(lambert_run / "ledger_first_frame.csv") < 1e-12
+    assert np.all(s[m, 2] > 0)
+
+
+# ------------------------------------------------------------------------------------------- the full Earth
+@pytest.fixture(scope="module")
+def pacific(tmp_path_factory):
+    return run_earth(tmp_path_factory.mktemp("earth_pacific"), "hours=1", "sun_rays=400")
+
+
+@pytest.fixture(scope="module")
+def africa(tmp_path_factory):
+    return run_earth(tmp_path_factory.mktemp("earth_africa"), "hours=1", "sun_rays=400", "save_rays=0",
+                     "start_utc='2008-03-19T06:19'")
+
+
+def test_outputs_and_provenance(pacific):
+    tag = "20080318T1819"
+    for b in BANDS:
+        frame(pacific, tag, b)
+        assert (pacific / "frames" / f"{tag}_{b}nm.stderr.npy").exists()
+    assert (pacific / "rgb" / f"{tag}.png").stat().st_size > 0
+    assert (pacific / "spectra" / f"{tag}.csv").exists()
+    assert (pacific / "disk_spectra_time_wavelength.png").exists()
+    import h5py
+
+    for which in ("toa", "pupil"):
+        with h5py.File(pacific / "rays" / f"{tag}_{which}.h5", "r") as h:
+            assert h.attrs["seed"] == 20080318
+    man = json.loads((pacific / "manifest.json").read_text())
+    listed = {Path(f["path"]).as_posix() if isinstance(f, dict) else str(f) for f in man["files"]}
+    assert any("disk_spectra.csv" in p for p in listed)
+    s = spectra(pacific)[f"2008-03-18T18:19:00Z"]
+    assert s.shape == (295, 4) and s[0, 0] == pytest.approx(300.0) and s[-1, 0] == pytest.approx(2500.0)
+    assert np.all(np.isfinite(s)) and np.all(s[:, 2] >= 0)
+
+
+def test_ledger_closes(pacific):
+    assert ledger_gap(pacific / "ledger_first_frame.csv") < 1e-12
+
+
+def test_blue_disk_and_albedo_in_the_epoxi_range(pacific, africa):
+    for run in (pacific, africa):
+        s = next(iter(spectra(run).values()))
+        a450, e450 = band_mean(s, 420, 480)
+        a550, e550 = band_mean(s, 520, 580)
+        assert a450 - a550 > 5 * math.hypot(e450, e550), (a450, a550)     # bluer at 450 than at 550 nm
+        vis, evis = band_mean(s, 450, 650)
+        assert EPOXI_APPARENT[0] - 5 * evis <= vis <= EPOXI_APPARENT[1] + 5 * evis, vis
+
+
+def test_red_edge_over_land(pacific, africa):
+    """The near-infrared to red ratio of the disk is larger with Africa and Europe in view than over the Pacific
+    (vegetation's red edge, and bright deserts), by more than 5 standard errors."""
+    def ratio(run):
+        s = next(iter(spectra(run).values()))
+        nir, en = band_mean(s, 760, 860)
+        red, er = band_mean(s, 620, 680)
+        return nir / red, nir / red * math.hypot(en / nir, er / red)
+    (rp, ep), (ra, ea) = ratio(pacific), ratio(africa)
+    assert ra - rp > 5 * math.hypot(ep, ea), (rp, ra)
+
+
+def test_same_seed_same_images(pacific, tmp_path):
+    again = run_earth(tmp_path / "again", "hours=1", "sun_rays=400", "save_rays=0")
+    for b in (450, 850):
+        assert np.array_equal(frame(pacific, "20080318T1819", b), frame(again, "20080318T1819", b))
+
+
+# ------------------------------------------------------------------------------------------- the day
+@pytest.mark.slow
+def test_the_default_day(tmp_path):
+    """`irt run examples_scripts/earth.inr` as it is: 25 frames, the animation, the day's spectra."""
+    out = run_earth(tmp_path / "day")
+    sp = spectra(out)
+    assert len(sp) == 25
+    assert (out / "earth.gif").stat().st_size > 0
+    ratios = []
+    for t, s in sp.items():
+        a450, _ = band_mean(s, 420, 480)
+        a550, _ = band_mean(s, 520, 580)
+        assert a450 > a550, t
+        vis, _ = band_mean(s, 450, 650)
+        assert EPOXI_APPARENT[0] <= vis <= EPOXI_APPARENT[1], (t, vis)
+        ratios.append(band_mean(s, 760, 860)[0] / band_mean(s, 620, 680)[0])
+    # land-dominated hours (Africa and Europe, around hour 12) against ocean-dominated ones (the Pacific, hour 0)
+    assert np.mean(ratios[10:15]) > np.mean(ratios[:3]) * 1.05
