@@ -34,7 +34,8 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="fewer rays (a smoke run)")
     ap.add_argument("--only", nargs="*", choices=MODULES, metavar="NAME", help=f"run only these: {', '.join(MODULES)}")
     ap.add_argument("--out", type=Path, default=HERE, help="folder for REPORT.md and the plots (default benchmarks/)")
-    ap.add_argument("--no-readme", action="store_true", help="leave the README's performance table alone")
+    ap.add_argument("--no-readme", action="store_true",
+                    help="leave the README's performance table alone (always so with --only)")
     a = ap.parse_args(argv)
     import numba
 
@@ -47,7 +48,8 @@ def main(argv=None) -> int:
             f"{os.cpu_count()} CPUs, {numba.get_num_threads()} Numba threads, Python {platform.python_version()}, "
             f"numba {numba.__version__}{' (quick)' if a.quick else ''}; peers: "
             + ", ".join(f"{k} {v}" if v else f"{k} **absent** (pip install \".[bench]\")" for k, v in peers.items())
-            + ".  Command: `python -m benchmarks" + (" --quick" if a.quick else "") + "`.", "",
+            + ".  Command: `python -m benchmarks" + (" --quick" if a.quick else "")
+            + (f" --only {' '.join(a.only)}" if a.only else "") + "`.", "",
             "Timings are best-of-N wall times on whatever machine ran this; on a shared machine (other jobs on the "
             "same cores) they are noisy, so every ratio is taken against a baseline measured in the same run.", ""]
     body, rows = [], []
@@ -75,7 +77,7 @@ def main(argv=None) -> int:
         print(f"benchmarks: {name} done ({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
     (out / "REPORT.md").write_text("\n".join(head + body) + "\n")
     readme = HERE.parent / "README.md"
-    if rows and readme.exists() and not a.no_readme:
+    if rows and readme.exists() and not a.no_readme and not a.only:   # --only: a partial run leaves the README alone
         table = ["| benchmark | result | target |", "|---|---|---|"] + [f"| {b} | {r} | {t} |" for b, r, t in rows]
         text = readme.read_text()
         block = MARK_START + "\n" + "\n".join(table) + "\n" + MARK_END

@@ -33,7 +33,7 @@ def earth_frame(script: Path = SCRIPT, settings=SETTINGS, timeout: int = TIMEOUT
         p = python_child("import sys; from irtlang.cli import main; sys.exit(main())", *args, "--out", out,
                          timeout=timeout)
         t = time.perf_counter() - t0
-    tail = "\n".join((p.stdout + p.stderr).strip().splitlines()[-8:])
+    tail = "\n".join(ln if len(ln) <= 160 else ln[:157] + "..." for ln in (p.stdout + p.stderr).strip().splitlines()[-8:])
     return {"s": t, "rc": p.returncode, "tail": tail}
 
 

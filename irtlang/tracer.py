@@ -146,6 +146,12 @@ class TraceContext:
         self.records, self.history = records, history
         self.mod = kernel_module(pk.features)
         self.o_bc, self.o_br = _object_bounds(pk)
+        # the scene's model kinds in the kernel's dispatch order (the all-features kernel dispatches over every
+        # registered kind, a specialized one over the scene's own)
+        disp = list(getattr(self.mod, 'BSDF_KINDS', pk.features.bsdf_kinds))
+        used = list(pk.features.bsdf_kinds)
+        self.mod_kind = (np.array([disp.index(used[q]) for q in pk.mod_kind], np.int32) if used
+                         else np.asarray(pk.mod_kind, np.int32))
         self.s_f, self.s_i, self.mesh_i = pk.surface_tables()
         self.L = len(pk.lines_nm)
         self.rows = pk.n_rows
@@ -190,7 +196,7 @@ class TraceContext:
                                  pk.bvh_count, pk.bvh_tris, pk.bvh_ids, pk.bvh_fn, pk.o_itf, pk.o_coat, pk.o_back,
                                  pk.o_front, pk.o_det, self.o_bc, self.o_br, pk.o_sc_first, pk.o_sc_cnt, pk.sp_kind,
                                  pk.sp_model, pk.sp_map, pk.sp_cls_off, pk.sp_cls_n, pk.sp_rays, pk.sp_tgt,
-                                 pk.cls_models, pk.map_data, pk.map_off, pk.map_nlat, pk.map_nlon, pk.mod_kind,
+                                 pk.cls_models, pk.map_data, pk.map_off, pk.map_nlat, pk.map_nlon, self.mod_kind,
                                  pk.mod_P, pk.mod_slab, pk.med_n, pk.med_alpha, pk.med_row, pk.med_sig, pk.med_alb,
                                  pk.med_g, pk.med_phase, pk.med_depol, pk.med_tgt, pk.med_nee, pk.coat_R, pk.coat_T,
                                  pk.d_nx, pk.d_ny, pk.d_ext, self.d_off, pk.d_qe, pk.src_kind, pk.src_dir,
@@ -259,16 +265,34 @@ def batches(total: int, batch: int, passes: int = 0):
         start += n
 
 
+BATCH_UNIT = 1 << 16          # rays per batch sent to a cluster worker, and with per-ray records
+BATCH_TALLY_BYTES = 16 << 20  # in-process batches: as many chunks as keep a batch's tallies under this
+
+
+def default_batch(ctx: TraceContext, runner=None) -> int:
+    """Rays per batch.  Every batch is one parallel region (and its barrier, where idle threads spin): in
+    process, batches as large as 256 chunks (262,144 rays) while their tallies stay under BATCH_TALLY_BYTES
+    (a scene with many ledger rows and lines gets smaller ones, never under 64 chunks); BATCH_UNIT for a
+    cluster's units and when per-ray records are kept."""
+    if runner is not None or ctx.records:
+        return BATCH_UNIT
+    per_chunk = 8 * (ctx.rows * 6 * ctx.L) + 16 * ctx.cap
+    return max(64, min(256, BATCH_TALLY_BYTES // per_chunk)) * ctx.mod.CHUNK
+
+
 def run_trace(scene, *, seed: int, level: int, halt: float, until_error: float | None = None,
               until_target: str | None = None, records: bool = False, history: bool = False,
-              batch: int = 1 << 16, max_passes: int = 1000, progress: Progress | None = None,
+              batch: int | None = None, max_passes: int = 1000, progress: Progress | None = None,
               runner=None) -> TraceResult:
     """Trace a scene.  `runner(ctx, units) -> iterable of BatchTally in order` may run the batches elsewhere
-    (irtlang.cluster); by default they run here, one after another, each in parallel over Numba threads."""
+    (irtlang.cluster); by default they run here, one after another, each in parallel over Numba threads.
+    `batch` (rays per batch, whole chunks) defaults to ``default_batch``."""
     pk = pack(scene, records=records, history=history)
     ctx = TraceContext(pk, seed=seed, level=level, halt=halt, records=records, history=history)
     # chunks are global (ray id // CHUNK), so results do not depend on the batch size: whole chunks per batch
     chunk = ctx.mod.CHUNK
+    if batch is None:
+        batch = default_batch(ctx, runner)
     batch = max(chunk, (batch + chunk - 1) // chunk * chunk)
     acc = Accumulator(ctx)
     target = list(scene.objects).index(until_target) if until_target else None

@@ -163,10 +163,42 @@ class Packed:
     d_filters: list = field(default_factory=list)   # per detector: None (an image per line) or
                                                     # (filter names, (L, B) transmission matrix)
 
+    def _hole_bounds(self) -> np.ndarray:
+        """(n, 4) per surface: the kernel's central-hole cull (trace_kernel SF_HOLE) for a plane or a conic
+        without aspheric terms whose aperture is an ANNULUS: (r_in'^2, z_lo, z_hi, d_max).  Every point of the
+        surface inside the aperture has z in [z_lo, z_hi] (the sag over [r_in, r_out], padded), so a ray whose
+        line crosses that slab at both faces closer than r_in' (r_in less a margin) to the axis cannot hit it
+        (r^2 is convex along a line).  Used only from origins within d_max (|o|_1), where the rounding of the
+        slab points stays far below the margin.  Zeros (no cull) for every other surface."""
+        n = len(self.s_kind)
+        out = np.zeros((n, 4))
+        for j in range(n):
+            k, apk = int(self.s_kind[j]), int(self.s_ap_kind[j])
+            if apk != AP_ANNULUS or k not in (SK_PLANE, SK_CONIC) or (k == SK_CONIC and self.s_nasph[j] > 0):
+                continue
+            rin, rout = float(self.s_ap[j, 0]), float(self.s_ap[j, 1])
+            if not (0.0 < rin < rout < math.inf):
+                continue
+            if k == SK_PLANE:
+                zs = [0.0]
+            else:
+                c, kk = float(self.s_par[j, 0]), float(self.s_par[j, 1])
+                if 1.0 - (1.0 + kk) * c * c * rout * rout < 0.0:
+                    continue        # the aperture reaches past the conic's domain: no cull
+                zs = [c * r * r / (1.0 + math.sqrt(max(0.0, 1.0 - (1.0 + kk) * c * c * r * r))) for r in (rin, rout)]
+            zlo, zhi = min(zs), max(zs)
+            scale = rout + abs(zlo) + abs(zhi)
+            pad = 1e-6 * (abs(zlo) + abs(zhi)) + 1e-9 * scale + 1e-12
+            r_cut = rin - 1e-9 * scale
+            if r_cut <= 0.0 or not math.isfinite(scale):
+                continue
+            out[j] = (r_cut * r_cut, zlo - pad, zhi + pad, 1e4 * scale)
+        return out
+
     def surface_tables(self):
         """(s_f, s_i, mesh_i): the surface columns as the kernel reads them (see trace_kernel SF_*/SI_*)."""
         n = len(self.s_kind)
-        f = np.zeros((n, 36))
+        f = np.zeros((n, 40))
         f[:, 0:6] = self.s_par
         f[:, 6:14] = self.s_asph
         f[:, 14:16] = self.s_ap
@@ -175,6 +207,7 @@ class Packed:
         f[:, 28:31] = self.s_Tl
         f[:, 31] = self.s_size
         f[:, 32:36] = self.s_bs
+        f[:, 36:40] = self._hole_bounds()
         # SI_AXIS: the surface's rotation is exactly the identity (the kernel then skips the frame rotation)
         axis = np.all(np.asarray(self.s_R, float).reshape(n, 9) == np.eye(3).ravel(), axis=1) if n else np.zeros(0, bool)
         fam, fidx = shell_families(self)

@@ -104,5 +104,6 @@ def kernel_module(features: Features):
     mod = importlib.util.module_from_spec(spec)
     sys.modules[name] = mod
     spec.loader.exec_module(mod)
+    mod.BSDF_KINDS = tuple(features.bsdf_kinds)   # the order of its BSDF dispatch
     _loaded[key] = mod
     return mod

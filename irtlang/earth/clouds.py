@@ -280,7 +280,8 @@ def ice_optics(iwc_g_m3, d_ge_um: float, wavelength_nm: float, delta_scaled: boo
 
 # ============================================================================ script lines
 def cloud_model_line(name: str, wavelengths_nm, *, thickness_km: float, lwc_g_m3: float = 0.0, r_eff_um: float = 10.0,
-                     iwc_g_m3: float = 0.0, d_ge_um: float = 60.0, orders: int = 4, clamp: bool = False) -> str:
+                     iwc_g_m3: float = 0.0, d_ge_um: float = 60.0, orders: int = 4, clamp: bool = False,
+                     kind: str = "HG") -> str:
     """`MODEL name HG G ... TAU ... ALBEDO ...` for a cloud layer of the given water contents and thickness,
     one value per wavelength line (liquid and ice mixed by their extinction)."""
     taus, ws, gs = [], [], []
@@ -298,6 +299,8 @@ def cloud_model_line(name: str, wavelengths_nm, *, thickness_km: float, lwc_g_m3
         ws.append(bs / be)
         gs.append(sum(p[0] * p[1] * p[2] for p in parts) / bs)
     fmt = lambda v: " ".join(f"{x:.6g}" for x in v)  # noqa: E731
+    if kind == "EDDINGTON":    # the thick-layer model: multiple scattering's energy partition (delta-Eddington)
+        return f"MODEL {name} EDDINGTON G {fmt(gs)} TAU {fmt(taus)} ALBEDO {fmt(ws)}"
     return f"MODEL {name} HG G {fmt(gs)} TAU {fmt(taus)} ALBEDO {fmt(ws)} ORDERS {orders}"
 
 

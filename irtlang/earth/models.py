@@ -58,10 +58,15 @@ def atmosphere_layer_lines(bands_nm=surfaces.HRI_BANDS_NM, levels_km=PAPER_LEVEL
 
 
 def cloud_lines(bands_nm=surfaces.HRI_BANDS_NM, layers=None, clamp: bool = False) -> list:
+    """Per cloud layer: `cloud_<layer>`, an EDDINGTON layer (the delta-Eddington energy partition of a thick
+    cloud: its multiple scattering), and `cloud_<layer>_hg`, the seed paper's HG slab with the Pfeiffer-Chapman
+    effective phase (a single-scattering slab: for optical depths of 10 it books a third of the light as absorbed;
+    tests/physics/test_bsdf_eddington.py compares both with the exact VOLUME medium)."""
     out = []
     for name, (z0, z1, lwc, re, iwc, dge) in (layers or CLOUD_LAYERS).items():
-        out.append(clouds.cloud_model_line(f"cloud_{name}", bands_nm, thickness_km=z1 - z0, lwc_g_m3=lwc,
-                                           r_eff_um=re, iwc_g_m3=iwc, d_ge_um=dge, clamp=clamp))
+        for suffix, kind in (("", "EDDINGTON"), ("_hg", "HG")):
+            out.append(clouds.cloud_model_line(f"cloud_{name}{suffix}", bands_nm, thickness_km=z1 - z0, lwc_g_m3=lwc,
+                                               r_eff_um=re, iwc_g_m3=iwc, d_ge_um=dge, clamp=clamp, kind=kind))
     return out
 
 

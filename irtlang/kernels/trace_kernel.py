@@ -97,8 +97,9 @@ def _sub(h, l, th, tl):
     return s + (e + (l - tl))
 
 
-# surface tables: s_f (n, 36) float columns and s_i (n, 6) int columns, laid out by irtlang.compile.pack
+# surface tables: s_f (n, 40) float columns and s_i (n, 8) int columns, laid out by irtlang.compile.pack
 SF_PAR, SF_ASPH, SF_AP, SF_R, SF_TH, SF_TL, SF_SIZE, SF_BS = 0, 6, 14, 16, 25, 28, 31, 32
+SF_HOLE = 36        # central-hole cull of an ANNULUS aperture: r_in'^2, z_lo, z_hi, d_max (Packed._hole_bounds)
 SI_KIND, SI_NASPH, SI_APK, SI_MESH, SI_OBJ, SI_AXIS = 0, 1, 2, 3, 4, 5   # SI_AXIS: 1 if R is the identity
 SI_FAM, SI_FIDX = 6, 7     # nested-shell family and index in it (-1: none; irtlang.compile.pack.shell_families)
 _NO_ASPH = np.zeros(0)
@@ -190,6 +191,20 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, mesh_i, bmin, bmax
                     continue
                 if best_t < np.inf and -bb - math.sqrt(disc) > best_t:
                     continue
+        # central-hole cull: a ray through an annulus's hole (the light from a Cassegrain's secondary to its
+        # focus, through the primary) crosses the slab that holds the surface within r_in of the axis at both
+        # faces, so it cannot hit it: one division instead of the surface's quadratic
+        hr2 = f[j, SF_HOLE]
+        if hr2 > 0.0 and j != jlast and ldz != 0.0 and abs(ox) + abs(oy) + abs(oz) < f[j, SF_HOLE + 3]:
+            iz = 1.0 / ldz
+            ta = (f[j, SF_HOLE + 1] - oz) * iz
+            tb = (f[j, SF_HOLE + 2] - oz) * iz
+            xa = ox + ta * ldx
+            ya = oy + ta * ldy
+            xb = ox + tb * ldx
+            yb = oy + tb * ldy
+            if xa * xa + ya * ya < hr2 and xb * xb + yb * yb < hr2:
+                continue
         tmin = EPS_SELF * max(f[j, SF_SIZE], abs(ox), abs(oy), abs(oz))
         if F_MESH and k == 5:
             m = si[j, SI_MESH]

@@ -82,6 +82,8 @@ CASES = [
     ("rayleigh_thick", "RAYLEIGH TAU 0.0971 2.0 ALBEDO 1 0.9 DEPOL 0.0279", 1),
     ("hg_cloud", "HG G 0.85 TAU 1 ALBEDO 0.99 ORDERS 4", 0),
     ("hg_back", "HG G 0.5 -0.3 TAU 2 0.2 ALBEDO 0.9 0.8 ORDERS 1", 1),
+    ("eddington_cloud", "EDDINGTON G 0.85 0.7 TAU 16 0.5 ALBEDO 0.99999 0.9", 0),
+    ("eddington_thin", "EDDINGTON G 0.85 0.7 TAU 16 0.5 ALBEDO 0.99999 0.9", 1),
     ("abg_polished", "ABG A 0.001 B 0.0001 G 2", 0),
     ("abg_rough", "ABG A 0.01 0.02 B 0.01 0.05 G 1.5 0.5", 1),
     ("table", "TABLE 'brdf.csv'", 1),
@@ -90,17 +92,17 @@ ANGLES = [0.0, 35.0, 75.0]
 CHI_CASES = [(c, a) for c in CASES for a in ANGLES]
 ALPHA_EACH = 1.0 - (1.0 - ALPHA) ** (1.0 / len(CHI_CASES))
 # the fast tier runs one parameter set per plugin at 35 deg; the whole matrix is marked slow
-FAST_CHI = {("lambert", 35.0), ("rossli_clamped", 35.0), ("glint", 35.0), ("rayleigh", 35.0), ("hg_cloud", 35.0),
+FAST_CHI = {("lambert", 35.0), ("rossli_clamped", 35.0), ("glint", 35.0), ("rayleigh", 35.0), ("hg_cloud", 35.0), ("eddington_cloud", 35.0),
             ("abg_polished", 35.0), ("table", 35.0)}
 CHI_PARAMS = [pytest.param(c[0], a, id=f"{c[0]}-{a:g}",
                            marks=() if (c[0], a) in FAST_CHI else pytest.mark.slow) for c, a in CHI_CASES]
-SLABS = {"RAYLEIGH", "HG"}
+SLABS = {"RAYLEIGH", "HG", "EDDINGTON"}
 
 
 def test_every_registered_kind_is_covered():
     kinds = {build_model(t, _table_dir())[0].KIND for _, t, _ in CASES}
     assert kinds == set(REGISTRY)
-    assert list(REGISTRY) == ["LAMBERTIAN", "ROSSLI", "GLINT", "RAYLEIGH", "HG", "ABG", "TABLE"]
+    assert list(REGISTRY) == ["LAMBERTIAN", "ROSSLI", "GLINT", "RAYLEIGH", "HG", "EDDINGTON", "ABG", "TABLE"]
 
 
 @lru_cache(maxsize=None)
@@ -461,6 +463,9 @@ DEGENERATE = [
     "HG G 0.999 TAU 0 ALBEDO 0 ORDERS 1",
     "HG G -0.999 TAU 300 ALBEDO 1 ORDERS 32",
     "HG G 0 TAU 1e-12 ALBEDO 1",
+    "EDDINGTON G 0.999 TAU 0 ALBEDO 0",
+    "EDDINGTON G -0.999 TAU 1e5 ALBEDO 1",
+    "EDDINGTON G 0 TAU 1e-12 ALBEDO 1",
     "ABG A 0 B 1 G 0",
     "ABG A 0.0001 B 1e-8 G 3",
     "TABLE 'brdf.csv'",

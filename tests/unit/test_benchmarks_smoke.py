@@ -2,12 +2,15 @@
 (a tiny configuration: the Earth hook only; no speed is asserted anywhere)."""
 import importlib
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from benchmarks import __main__ as bench_main
-from benchmarks._common import time_to_error
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))   # benchmarks/ is a folder of the repository, not packaged
+from benchmarks import __main__ as bench_main  # noqa: E402
+from benchmarks._common import time_to_error  # noqa: E402
 
 
 @pytest.mark.parametrize("name", bench_main.MODULES)

@@ -6,4 +6,4 @@ direct_transmission.  Shared helpers (albedo tables, the single-scattering slab)
 """
 from .. import load_registry
 
-REGISTRY = load_registry(__name__, ["lambertian", "rossli", "glint", "rayleigh", "hg", "abg", "table"])
+REGISTRY = load_registry(__name__, ["lambertian", "rossli", "glint", "rayleigh", "hg", "eddington", "abg", "table"])
