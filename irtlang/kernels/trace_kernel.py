@@ -56,6 +56,8 @@ F_SHELLS = True
 
 CHUNK = 1024
 SMAX = 256          # pending paths per source ray (splitting, rays toward a target)
+MAX_PATHS = 4096    # paths per source ray: past this, RAYS n no longer splits (still unbiased); without a
+                    # bound, k scatterings make n^k paths and a closed scattering scene never ends
 NEE_STRAIGHT_DN = 1e-3   # rays sent toward a target cross index steps smaller than this without bending
 SW = 20             # stack entry: ph(3) pl(3) d(3) w w0 ev excl nee path flags jlast opl sx sy, then the history
 # ledger columns
@@ -1024,7 +1026,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                     excl = -1
                         else:
                             # diffuse scattering: the model's own sampling; RAYS n without TOWARD splits
-                            nsplit = sc_n if sc_tgt < 0 else 1
+                            nsplit = sc_n if sc_tgt < 0 and npath < MAX_PATHS else 1
                             wi_x = -dx
                             wi_y = -dy
                             wi_z = -dz

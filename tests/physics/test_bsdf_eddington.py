@@ -106,11 +106,13 @@ def test_thick_cloud_against_exact_multiple_scattering(tmp_path):
     (rs, ss), (rv, sv) = _reflectance(slab), _reflectance(vol)
     assert rs == pytest.approx(E.two_stream(G, TAU, 1.0, MU0)[0], abs=5 * ss + 1e-3)
     assert abs(rs - rv) <= 0.05 * rv + 5 * math.hypot(ss, sv), (rs, rv)
-    # both conserve energy: sky + below = 1 W (no absorption), and the ledgers close
+    # both conserve energy: sky + below (+ escaped) = 1 W (no absorption; the slab's R and T tables are interpolated over
+    # cos_i, to about 1e-8), and the ledgers close
     for res in (slab, vol):
         names = [n.upper() for n in res.rows]
-        tot = res.flux_on(names.index("SKY"))[0] + res.flux_on(names.index("BELOW"))[0]
-        assert tot == pytest.approx(1.0, rel=1e-9)
+        tot = (res.flux_on(names.index("SKY"))[0] + res.flux_on(names.index("BELOW"))[0]
+               + res.ledger[names.index("ESCAPED"), 4].sum())      # a few volume paths leave past the planes' edges
+        assert tot == pytest.approx(1.0, rel=1e-6)
         assert ledger_gap(res) < 1e-12
     # the single-scattering HG slab (Pfeiffer-Chapman phase) is no cloud: it reflects a few per cent and books
     # most of the light as absorbed (why earth.inr's clouds are EDDINGTON layers by default)

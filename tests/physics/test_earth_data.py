@@ -60,7 +60,7 @@ def test_every_dataset_is_labelled(tier):
         assert "LATLON" in info["convention"]
     proxies = {n for n in D.DATASETS if D.dataset_info(n)["proxy"]}
     assert proxies == {"LANDCOVER", "SNOW_FRACTION", "SEA_ICE_FRACTION", "CLOUD_FRACTION", "CLOUD_LOW",
-                       "CLOUD_MIDDLE", "CLOUD_HIGH"}
+                       "CLOUD_MIDDLE", "CLOUD_HIGH", "AEROSOL_TYPE"}
     assert "PROXY" in D.dataset_info("LANDCOVER")["source"]
     assert "global-land-mask" in D.dataset_info("LAND_MASK")["source"]
     assert "MIT" in D.dataset_info("LAND_MASK")["licence"]

@@ -52,7 +52,11 @@ def test_atmosphere_layers_are_rayleigh_plus_gas():
 
 def test_cloud_and_aerosol_lines():
     c = models.cloud_lines(BANDS)
-    assert [l.split()[1] for l in c] == ["cloud_low", "cloud_middle", "cloud_high"]
+    assert [l.split()[1] for l in c] == ["cloud_low", "cloud_low_hg", "cloud_middle", "cloud_middle_hg",
+                                         "cloud_high", "cloud_high_hg"]
+    assert [l.split()[2] for l in c] == ["EDDINGTON", "HG"] * 3
+    assert all(np.array_equal(_values(c[i], "TAU"), _values(c[i + 1], "TAU")) for i in (0, 2, 4))   # one cloud, two models
+    c = c[0::2]
     t550 = [_values(l, "TAU")[2] for l in c]
     assert 10 < t550[0] < 25 and 3 < t550[1] < 15 and 0.3 < t550[2] < 3
     a = models.aerosol_lines(BANDS)
@@ -64,9 +68,11 @@ def test_cloud_and_aerosol_lines():
 def test_include_files_make_a_valid_earth_script(tmp_path):
     paths = models.write_earth_includes(tmp_path, BANDS)
     assert set(paths) == {"earth_surfaces.inr", "earth_atmosphere.inr", "earth_clouds.inr", "earth_aerosols.inr",
-                          "earth_maps.inr"}
-    for layer in ("low", "middle", "high"):
-        assert (tmp_path / f"cloud_{layer}.npy").exists() and (tmp_path / f"cloud_{layer}.json").exists()
+                          "earth_maps.inr", "earth_media.inr"}
+    maps = (tmp_path / "earth_maps.inr").read_text()
+    for layer in ("LOW", "MIDDLE", "HIGH"):
+        assert f"LATLON DEFAULT CLOUD_{layer}" in maps
+    assert "MAP aerosol LATLON DEFAULT AEROSOL_TYPE" in maps
     script = tmp_path / "earth_check.inr"
     script.write_text("UNITS KM\nWAVELENGTHS 350 450 550 650 750 850 950 NM\n"
                       + "".join(f"INCLUDE '{n}'\n" for n in paths)

@@ -55,7 +55,7 @@ def test_every_band_has_its_curve(tmp_path, band):
 def test_a_band_without_a_filter_curve_is_refused(tmp_path, band, shown):
     msgs = _check(tmp_path, _inst(band=band))
     assert msgs == [f"band = {shown}: there is no filter curve for it; the HRI-VIS bands are 350 450 550 650 750 "
-                    "850 950 (nm) and clear"]
+                    "850 950 (nm), clear and all"]
 
 
 def test_a_spacing_that_puts_the_secondary_into_the_primary_is_refused(tmp_path):

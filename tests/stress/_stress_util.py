@@ -134,6 +134,27 @@ class Runner:
             self.proc.wait()
             self.errlog.close()
             self.proc = None
+        self.warm = False
+
+    def _warm_up(self, folder: Path):
+        """A fresh worker traces a trivial scene first, under WARMUP_TIMEOUT: that loads (or compiles) the
+        kernel, so the case that follows gets its own CASE_TIMEOUT for itself."""
+        self.stop()
+        self._start()
+        w = Path(folder) / "warmup"
+        w.mkdir(parents=True, exist_ok=True)
+        (w / "warmup.inr").write_text(head() + "SURFACE\n  PLANE Z 1 RECT 1 1\nOBJECT d\n"
+                                      "GRID RECT Z 0 -1 1 -1 1 2 2\nSOURCE DIRECTION 0 0 1\nTRACE\n")
+        self.proc.stdin.write(json.dumps({"script": str(w / "warmup.inr"), "out": str(w / "out")}) + "\n")
+        self.proc.stdin.flush()
+        try:
+            ln = self.lines.get(timeout=WARMUP_TIMEOUT)
+        except queue.Empty:
+            ln = None
+        if ln is None or json.loads(ln)["code"] != 0:
+            self.stop()
+            raise RuntimeError(f"the stress worker could not trace a trivial scene: {ln}")
+        self.warm = True
 
     def run(self, folder: Path, text: str, name: str = "case", timeout: float | None = None) -> RunResult:
         """Write `text` to folder/name.inr and `irt run` it into folder/out; at most `timeout` seconds."""
@@ -142,13 +163,9 @@ class Runner:
         script = folder / f"{name}.inr"
         script.write_text(text)
         out = folder / "out"
-        if self.proc is None or self.proc.poll() is not None:
-            self.stop()
-            self._start()
-            self.warm = False
+        if self.proc is None or self.proc.poll() is not None or not self.warm:
+            self._warm_up(folder)
         limit = timeout if timeout is not None else CASE_TIMEOUT
-        if not self.warm:
-            limit = max(limit, WARMUP_TIMEOUT)   # a fresh worker may have to compile the kernel first
         self.proc.stdin.write(json.dumps({"script": str(script), "out": str(out)}) + "\n")
         self.proc.stdin.flush()
         try:
