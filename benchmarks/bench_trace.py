@@ -123,7 +123,7 @@ def report(r: dict) -> str:
         "are the tracer's: irtlang is non-sequential (every surface is tested on every segment, behind a "
         "bounding-sphere cull: 3 conic solves per ray where the hand-written kernel, knowing the order, does 2), "
         "renormalizes directions after each reflection, and runs its general machinery (source table, path "
-        "stack, per-ray deposit list, ledger rows, batches of 65,536 rays and their reduction).  Times include "
+        "stack, per-ray deposit list, ledger rows, batches of 262,144 rays and their reduction).  Times include "
         "irtlang's packing of the scene and the reduction of both tracers' tallies; the hand-written kernel's "
         "tally arrays are allocated outside its timing.",
         "",

@@ -1026,7 +1026,9 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                     excl = -1
                         else:
                             # diffuse scattering: the model's own sampling; RAYS n without TOWARD splits
-                            nsplit = sc_n if sc_tgt < 0 and npath < MAX_PATHS else 1
+                            # (no split once the source ray has MAX_PATHS paths or the stack has no room
+                            # for the extra ones: going on as one ray is just as unbiased, and loses nothing)
+                            nsplit = sc_n if sc_tgt < 0 and npath < MAX_PATHS and sp + sc_n <= SMAX + 1 else 1
                             wi_x = -dx
                             wi_y = -dy
                             wi_z = -dz

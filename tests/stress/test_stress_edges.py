@@ -206,3 +206,18 @@ LEVEL 300
 TRACE
 """ + outputs(spectra=("plate", "cup", "ball", "ell"))
     check_run(runner.run(tmp_path, text, "on_surfaces"))
+
+
+@pytest.mark.slow
+def test_fine_mesh_vertices_and_edges_long(runner, tmp_path):
+    """The long form: a 4-times subdivided icosphere (2562 vertices, 5120 faces), every upward vertex and
+    three points on every upward edge."""
+    trimesh = pytest.importorskip("trimesh")
+    path = tmp_path / "fine.stl"
+    trimesh.creation.icosphere(subdivisions=4, radius=10.0).export(str(path))
+    verts, edges = _aim_points(_mesh(path))
+    for what, pts in (("vertices", verts), ("edges", edges)):
+        rays = "".join(ray((p[0], p[1], 50.0), (0, 0, -1)) for p in pts)
+        r = check_run(runner.run(tmp_path / what, _mesh_scene(path, rays), f"fine_{what}"))
+        hits = hits_per_source(records(r), "ball")
+        assert np.all(hits == 1), f"fine {what}: {int((hits == 0).sum())} rays slipped through"

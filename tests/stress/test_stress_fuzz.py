@@ -109,8 +109,8 @@ def source(draw, s):
     z = fmt(draw(unit) * 3 * s)
     if kind == "grid":
         rnd = draw(st.sampled_from(["", " RANDOM"]))
-        g = draw(st.sampled_from([f"GRID RECT {draw(AXIS)} {z} {fmt(-2 * s)} {fmt(2 * s)} {fmt(-s)} {fmt(2 * s)} 4 3{rnd}",
-                                  f"GRID DISK {draw(AXIS)} {z} {fmt(2 * s)} RAYS 12{rnd}"]))
+        rect = f"GRID RECT {draw(AXIS)} {z} {fmt(-2 * s)} {fmt(2 * s)} {fmt(-s)} {fmt(2 * s)} 4 3{rnd}"
+        g = draw(st.sampled_from([rect, f"GRID DISK {draw(AXIS)} {z} {fmt(2 * s)} RAYS 12{rnd}"]))
         text = f"{g}\nSOURCE DIRECTION {draw(direction())}\n"
     elif kind == "position":
         conv = draw(st.sampled_from(["", " CONVERGE"]))

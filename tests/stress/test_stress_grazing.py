@@ -215,3 +215,50 @@ HALT 0
         assert r.row("dome")[0] == 0.0, f"{surf}: light got out of a closed mirror"
         assert r.row("HALTED")[4] == pytest.approx(emitted, rel=1e-12)
         assert r.row("ball")[0] == pytest.approx(level * emitted, rel=1e-12)
+
+
+def _random_points(kind, n, seed=1):
+    """n random points (and unit normals) on the surface of SURFACES[kind]."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        u, v = rng.random(2)
+        if kind == "sphere":
+            th, ph = math.acos(1 - 2 * u), 2 * math.pi * v
+            nn = np.array([math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph), math.cos(th)])
+            out.append((10.0 * nn, nn))
+        elif kind == "ellipsoid":
+            th, ph = math.acos(1 - 2 * u), 2 * math.pi * v
+            P = np.array([10 * math.sin(th) * math.cos(ph), 6 * math.sin(th) * math.sin(ph), 3 * math.cos(th)])
+            nn = P / np.array([100.0, 36.0, 9.0])
+            out.append((P, nn / np.linalg.norm(nn)))
+        else:
+            R, k, ap = {"paraboloid": (20.0, -1.0, 15.0), "hyperboloid": (-20.0, -2.0, 15.0),
+                        "hemisphere": (10.0, 0.0, 10.0), "oblate": (30.0, 0.5, 12.0)}[kind]
+            c, r0, ph = 1.0 / R, 0.999 * ap * math.sqrt(u), 2 * math.pi * v
+            x, y = r0 * math.cos(ph), r0 * math.sin(ph)
+            z = c * r0 * r0 / (1 + math.sqrt(max(1 - (1 + k) * c * c * r0 * r0, 0.0)))
+            g = np.array([2 * c * x, 2 * c * y, 2 * (1 + k) * c * z - 2])
+            out.append((np.array([x, y, z]), -g / np.linalg.norm(g)))
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", list(SURFACES))
+def test_grazing_1e9_many_points_long(runner, tmp_path, kind):
+    """The long form: 400 random points per surface, three rays each, on a mirror and on glass."""
+    surface = SURFACES[kind][0]
+    pts = _random_points(kind, 400)
+    rays = "".join(_graze(P, n) for P, n in pts)
+    for itf in ("INTERFACE REFLECT", "INTERFACE TRANSMIT AIR glass"):
+        r = check_run(runner.run(tmp_path / itf.split()[1], _scene(surface, rays, itf), kind))
+        if itf.endswith("REFLECT"):
+            rec = records(r)
+            d0 = []
+            for P, n in pts:
+                t = np.cross(n, AXIS)
+                t /= np.linalg.norm(t)
+                d0 += [math.cos(a) * t - math.sin(a) * np.asarray(n) for a in ANGLES]
+            turn = np.linalg.norm(np.cross(rec["direction"], np.array(d0)[rec["source"]]), axis=1)
+            assert np.all(turn < 1e-6), (kind, turn.max())
+            assert r.row("dome")[0] == pytest.approx(r.row("EMITTED")[0], rel=1e-12)

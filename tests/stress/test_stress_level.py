@@ -2,7 +2,8 @@
 between two facing mirrors, inside a mirror sphere, ellipsoid and closed mirror mesh, and between two partial
 mirrors whose weights decay to denormals and zero (HALT 0) or play Russian roulette.  Besides the common
 invariants (tests/stress/_stress_util.py: no NaN or inf, a closed ledger, no hang), a trapped ray meets the
-mirrors exactly LEVEL times and ends HALTED: nothing escapes.  The slow form traces 5e7 events per ray.
+mirrors exactly LEVEL times and ends HALTED: nothing escapes.  A white scattering lining with RAYS n inside
+a closed mirror (n^LEVEL paths without a bound) must end quickly.  The slow form traces 5e7 events per ray.
 """
 import pytest
 from _stress_util import DATA, check_run, head, outputs
@@ -75,3 +76,29 @@ TRACE
         assert r.row("HALTED")[4] == 0.0
         if "TRANSMIT" not in coat:
             assert r.row("ESCAPED")[4] == 0.0
+
+
+@pytest.mark.parametrize("rays", [2, 3])
+def test_split_rays_in_a_closed_scattering_scene(runner, tmp_path, rays):
+    """A white Lambertian lining (albedo 1) with RAYS n inside a closed mirror sphere: every scattering splits
+    the path, nothing is ever lost and the weights relative to each path's start never fall, so without a
+    bound a source ray would make n^LEVEL paths (a hang), and its pending paths would overflow the stack (flux
+    LOST).  The tracer stops splitting at 4096 paths per source ray or when the stack is full: the run ends
+    quickly, nothing is LOST, every path is HALTED by LEVEL, nothing escapes and the ledger closes."""
+    text = head(lines="550 NM") + f"""MODEL white LAMBERTIAN 1
+SURFACE
+  SPHERE 0 0 0 20
+OBJECT shell
+  INTERFACE REFLECT
+  SCATTER MODEL white RAYS {rays}
+LEVEL 150
+HALT 1e-6
+GRID RECT Z 0 -1 1 -1 1 2 2
+SOURCE DIRECTION 0.1 0.2 1
+TRACE
+""" + outputs(spectra=("shell",))
+    r = check_run(runner.run(tmp_path, text, "split", timeout=60))
+    emitted = r.row("EMITTED")[0]
+    assert r.row("HALTED")[4] == pytest.approx(emitted, rel=1e-12)
+    assert r.row("ESCAPED")[4] == 0.0
+    assert r.row("shell")[3] > 0      # scattered

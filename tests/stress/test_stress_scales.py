@@ -95,3 +95,15 @@ def test_far_group_same_image(placed, place):
     assert np.count_nonzero(img0) <= 4                        # and it is a spot
     assert np.array_equal(img, img0), place
     assert r.row("fpa")[0] == ref.row("fpa")[0]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("e", range(-9, 13))
+def test_same_scene_at_every_decade_long(runner, tmp_path, e):
+    """The long form: every power of ten from 1e-9 to 1e12, against the scene at 1 m."""
+    r = check_run(runner.run(tmp_path / "s", _scaled(10.0 ** e), "scale"))
+    ref = check_run(runner.run(tmp_path / "ref", _scaled(1.0), "ref"))
+    for name, row in ref.ledger.items():
+        assert np.allclose(r.ledger[name], row, rtol=1e-12, atol=1e-15), (e, name)
+    assert np.allclose(np.load(r.folder / "img_det.npy"), np.load(ref.folder / "img_det.npy"), rtol=1e-12,
+                       atol=1e-15)
