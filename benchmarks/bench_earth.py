@@ -22,7 +22,10 @@ SETTINGS = ("hours=1",)
 TIMEOUT_S = 1800
 
 
-def earth_frame(script: Path = SCRIPT, settings=SETTINGS, timeout: int = TIMEOUT_S) -> dict:
+RAYS = (100, 400, 1600)     # Sun rays per line: time against radiometric error
+
+
+def earth_frame(script: Path = SCRIPT, settings=SETTINGS, timeout: int = TIMEOUT_S, keep=None) -> dict:
     """Wall time of one `irt run` of the Earth script (one frame), the working tree's code, the warm Numba cache.
     Returns {"s": seconds, "rc": exit status, "tail": the last lines of its output}."""
     args = ["run", str(script)]
@@ -33,8 +36,35 @@ def earth_frame(script: Path = SCRIPT, settings=SETTINGS, timeout: int = TIMEOUT
         p = python_child("import sys; from irtlang.cli import main; sys.exit(main())", *args, "--out", out,
                          timeout=timeout)
         t = time.perf_counter() - t0
+        extra = keep(Path(out)) if keep is not None and p.returncode == 0 else {}
     tail = "\n".join(ln if len(ln) <= 160 else ln[:157] + "..." for ln in (p.stdout + p.stderr).strip().splitlines()[-8:])
-    return {"s": t, "rc": p.returncode, "tail": tail}
+    return {"s": t, "rc": p.returncode, "tail": tail, **extra}
+
+
+def _pupil_flux(out: Path) -> dict:
+    """The disk-integrated flux through the pupil (all lines) and its standard error, from spectra/*.csv."""
+    import csv
+    import math
+
+    f = next((out / "spectra").glob("*.csv"))
+    rows = list(csv.DictReader(f.open()))
+    flux = sum(float(r["flux_W"]) for r in rows)
+    se = math.sqrt(sum(float(r["stderr_W"]) ** 2 for r in rows))
+    return {"flux_W": flux, "stderr_W": se}
+
+
+def error_against_time(rays=RAYS) -> list:
+    """One frame at each Sun-ray count: wall time, relative standard error of the disk flux, figure of merit
+    1 / (err^2 t).  The error must fall as 1/sqrt(N) (the fitted slope of log err against log N near -0.5)."""
+    out = []
+    for n in rays:
+        r = earth_frame(settings=("hours=1", f"sun_rays={n}", "save_rays=0"), keep=_pupil_flux)
+        if r["rc"] != 0:
+            out.append({"rays": n, "rc": r["rc"], "tail": r["tail"]})
+            continue
+        rel = r["stderr_W"] / r["flux_W"]
+        out.append({"rays": n, "s": r["s"], "rel_err": rel, "fom": 1.0 / (rel * rel * r["s"]), "flux_W": r["flux_W"]})
+    return out
 
 
 def run(quick: bool = False) -> dict:
@@ -44,6 +74,12 @@ def run(quick: bool = False) -> dict:
         return {"skipped": "not run with --quick (one Earth frame takes minutes)"}
     r = earth_frame()
     r["settings"] = list(SETTINGS)
+    r["series"] = error_against_time()
+    ok = [x for x in r["series"] if "rel_err" in x]
+    if len(ok) >= 2:
+        import numpy as np
+
+        r["slope"] = float(np.polyfit(np.log([x["rays"] for x in ok]), np.log([x["rel_err"] for x in ok]), 1)[0])
     return r
 
 
@@ -55,6 +91,18 @@ def report(r: dict) -> str:
     lines += [f"`irt run examples_scripts/earth.inr --set {' --set '.join(r['settings'])}`: {r['s']:.1f} s, {status}.  "
               "Only the wall time is measured here (benchmarks/bench_earth.py: earth_frame is the hook for the "
               "frame's metrics).", "", "```", r["tail"], "```", ""]
+    if r.get("series"):
+        lines += ["Time against radiometric error (one frame, the disk-integrated flux through the pupil over all 295 "
+                  "lines; wall time of the whole `irt run`, start-up and packing included):", "",
+                  "| Sun rays per line | wall s | relative standard error | figure of merit 1/(err^2 t) |", "|---|---|---|---|"]
+        for x in r["series"]:
+            if "rel_err" in x:
+                lines.append(f"| {x['rays']} | {x['s']:.1f} | {x['rel_err']:.4%} | {x['fom']:.3g} |")
+            else:
+                lines.append(f"| {x['rays']} | failed (exit {x['rc']}) | | |")
+        if "slope" in r:
+            lines += ["", f"Fitted slope of log(error) against log(rays): {r['slope']:.3f} (1/sqrt(N): -0.5)."]
+        lines.append("")
     return "\n".join(lines)
 
 

@@ -45,7 +45,9 @@ def rebin(w_src, v_src, lines_nm) -> np.ndarray:
     cum = np.concatenate([[0.0], np.cumsum(0.5 * (vals[1:] + vals[:-1]) * np.diff(grid))])
     lo = np.interp(edges[:, 0], grid, cum)
     hi = np.interp(edges[:, 1], grid, cum)
-    return (hi - lo) / (edges[:, 1] - edges[:, 0])
+    # a band mean lies within the values it averages: clip the rounding of the cumulative sums (a plateau of 1.0
+    # must not come back as 1.0000000000000002, which a transmission check would refuse)
+    return np.clip((hi - lo) / (edges[:, 1] - edges[:, 0]), v_src.min(), v_src.max())
 
 
 def line_widths(lines_nm) -> np.ndarray:
