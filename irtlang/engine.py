@@ -431,7 +431,7 @@ class Engine:
                 argv.append(a)
                 continue
             name = a[len("\0path:"):]
-            out = self.folder.output(name)
+            out = self.folder.output(name, create=False)
             if k > 0 and raw[k - 1] in ("--output", "--plot"):
                 out.parent.mkdir(parents=True, exist_ok=True)
                 written.append(out)

@@ -19,11 +19,13 @@ class RunFolder:
                      "seed": seed, "data_tier": data_tier, "rays_traced": 0,
                      "started_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")}
 
-    def output(self, rel: str) -> Path:
-        """Where an output named in the script goes (relative paths are relative to the run folder)."""
+    def output(self, rel: str, create: bool = True) -> Path:
+        """Where an output named in the script goes (relative paths are relative to the run folder); create: make
+        its folder ('frames/x.npy', 'rays/y.h5'), which a lookup of an existing file does not need."""
         p = Path(rel)
         p = p if p.is_absolute() else self.root / p
-        p.parent.mkdir(parents=True, exist_ok=True)     # 'frames/x.npy', 'rays/y.h5': folders as named
+        if create:
+            p.parent.mkdir(parents=True, exist_ok=True)
         return p
 
     def record(self, path: Path, kind: str) -> None:

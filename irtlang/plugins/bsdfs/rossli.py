@@ -99,35 +99,9 @@ def reflectance_factor(iso, vol, geo, mu_s, mu_v, cos_xi):
 
 
 @numba.njit(cache=True, fastmath=False)
-def _albedo_table(iso, vol, geo, mu_nodes, x, wq):
-    """R_dh at each node: sum over mu_v panels [0, mu_s], [mu_s, 1] and phi in [0, pi] (doubled)."""
-    nt = mu_nodes.shape[0]
-    n = x.shape[0]
-    out = np.zeros(nt)
-    for i in range(nt):
-        ms = mu_nodes[i]
-        ss = math.sqrt(max(0.0, 1.0 - ms * ms))
-        acc = 0.0
-        for panel in range(2):
-            lo = 0.0 if panel == 0 else ms
-            hi = ms if panel == 0 else 1.0
-            for a in range(n):
-                mv = 0.5 * (lo + hi) + 0.5 * (hi - lo) * x[a]
-                wa = 0.5 * (hi - lo) * wq[a]
-                sv = math.sqrt(max(0.0, 1.0 - mv * mv))
-                for b in range(n):
-                    ph = 0.5 * math.pi * (1.0 + x[b])
-                    wb = 0.5 * math.pi * wq[b]
-                    cxi = ms * mv + ss * sv * math.cos(ph)
-                    acc += wa * wb * reflectance_factor(iso, vol, geo, ms, mv, cxi) * mv
-        out[i] = 2.0 * acc * INV_PI
-    return out
-
-
-@numba.njit(cache=True, fastmath=False)
 def _albedo_tables(W, mu_nodes, x, wq):
-    """_albedo_table for many weight triples W (m, 3) at once: the kernels are evaluated once on the
-    quadrature grid and shared (the same nodes, the same sums: identical to _albedo_table per triple)."""
+    """R_dh at each node, for each weight triple W (m, 3): the sum over mu_v panels [0, mu_s], [mu_s, 1] and phi in
+    [0, pi] (doubled); the kernels are evaluated once on the quadrature grid and shared by the triples."""
     nt = mu_nodes.shape[0]
     n = x.shape[0]
     m = W.shape[0]
@@ -161,6 +135,11 @@ def _albedo_tables(W, mu_nodes, x, wq):
                     acc += ww[r, b] * max(0.0, iso + vol * kv[r, b] + geo * kg[r, b])
             out[q, i] = 2.0 * acc * INV_PI
     return out
+
+
+def _albedo_table(iso, vol, geo, mu_nodes, x, wq):
+    """R_dh at each node for one weight triple."""
+    return _albedo_tables(np.array([[iso, vol, geo]], float), mu_nodes, x, wq)[0]
 
 
 def pack(params, n_lines: int) -> np.ndarray:
