@@ -103,9 +103,10 @@ def report(r: dict) -> str:
         g = r["growth"][k]
         lines.append(f"* {k}: largest / smallest peak {g:.2f} ({r['per_ray'][k]:.1f} bytes per extra ray): "
                      f"{'flat' if g <= FLAT else 'not flat'} (target: flat in rays, here within {FLAT - 1:.0%}).")
-    lines += ["", "The lattice is computed before the trace and kept as an array of start points (16 bytes per ray, "
-                  "irtlang/compile/pack.py), so its memory grows with the ray count; random grids draw each start "
-                  "point from the ray's id.", "", f"![peak memory]({r['plot']})", ""]
+    lines += ["", "Neither source stores its start points: a random grid draws each from the ray's id, a lattice "
+                  "GRID DISK keeps one row table (O(sqrt(rays)) entries, irtlang.compile.pack.disk_lattice_rows) and "
+                  "finds a ray's row by bisection.  Images stream into their tallies; nothing per ray is kept.", "",
+              f"![peak memory]({r['plot']})", ""]
     return "\n".join(lines)
 
 

@@ -86,9 +86,7 @@ def run(n: int = 2_000_000, repeat: int = 3, quick: bool = False) -> dict:
            "ratio": min(t_hand) / min(t_irt), "flux_irt": float(irt_img.sum()), "flux_hand": float(hand[0].sum()),
            "sq_irt": float(irt_sq.sum()), "sq_hand": float(hand[1].sum()),
            "inc_irt": inc_irt, "inc_hand": inc_hand,
-           # sums of ~1e6 terms added in different orders agree to ~1e-12, not to the last bit; pixel by pixel
-           # the images differ a little: this design focuses onto a pixel corner, where a ray's pixel is decided
-           # by rounding (irtlang renormalizes directions, the hand-written kernel does not)
+           # sums of ~1e6 terms added in different orders agree to ~1e-12, not to the last bit
            "same_image": bool(np.isclose(irt_img.sum(), hand[0].sum(), rtol=1e-9, atol=0)
                               and np.isclose(irt_sq.sum(), hand[1].sum(), rtol=1e-9, atol=0)),
            "ledger_ok": bool(np.allclose(inc_irt, inc_hand, rtol=1e-9, atol=0)
@@ -121,9 +119,11 @@ def report(r: dict) -> str:
         "the per-ray squared incident flux for the standard errors).  Both use the same geometry primitives "
         "(irtlang.kernels.geometry: hit_conic_plain, conic_normal_plain, in_annulus, in_disk).  The differences "
         "are the tracer's: irtlang is non-sequential (every surface is tested on every segment, behind a "
-        "bounding-sphere cull: 3 conic solves per ray where the hand-written kernel, knowing the order, does 2), "
-        "renormalizes directions after each reflection, and runs its general machinery (source table, path "
-        "stack, per-ray deposit list, ledger rows, batches of 262,144 rays and their reduction).  Times include "
+        "bounding-sphere cull and a central-hole cull, where the hand-written kernel, knowing the order, tests only "
+        "the surface it will hit), and runs its general machinery (source table, path stack, per-ray deposit "
+        "list and per-source-ray squared sums, LOST-ray checks, optical path, ledger rows, batches of 262,144 "
+        "rays and their reduction).  docs/benchmarks.md, \"Where the targets stand\", breaks the difference "
+        "down with variant kernels.  Times include "
         "irtlang's packing of the scene and the reduction of both tracers' tallies; the hand-written kernel's "
         "tally arrays are allocated outside its timing.",
         "",

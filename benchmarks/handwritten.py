@@ -10,8 +10,9 @@ overhead and not a difference in outputs (benchmarks/REPORT.md):
   per source ray (the objects' standard errors), plus the emitted and the escaped flux.
 It uses the same geometry primitives as irtlang's kernel (``hit_conic_plain``, ``conic_normal_plain``,
 ``in_annulus``, ``in_disk`` of irtlang.kernels.geometry), so a faster primitive speeds both alike.
-It does not renormalize directions after a reflection (irtlang does) and tests each surface only where a
-sequential trace knows it can be hit (irtlang, non-sequential, tests every surface on every segment).
+Neither renormalizes directions after a mirror reflection (a unit normal keeps |d| = 1 to rounding); this
+kernel tests each surface only where a sequential trace knows it can be hit (irtlang, non-sequential, tests
+every surface on every segment).
 """
 import math
 

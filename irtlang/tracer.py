@@ -173,16 +173,24 @@ class TraceContext:
         self.d_fm_off = (np.concatenate([[0], np.cumsum([m.size for m in mats])[:-1]]).astype(np.int64) if mats
                          else np.zeros(0, np.int64))
         self.cap = 2 * self.mod.CHUNK
+        self._dep_buf = None
         self.rcap = 2 * self.mod.CHUNK if records else 1
 
-    def run_batch(self, first: int, n: int) -> BatchTally:
+    def run_batch(self, first: int, n: int, reuse: bool = False) -> BatchTally:
+        """Trace one batch.  With `reuse` the deposit lists are the context's own buffers, kept from the last
+        batch (no fresh pages to fault in per batch): the caller must consume the tally before the next call."""
         pk, L, rows, H = self.pk, self.L, self.rows, self.H
         nch = (n + self.mod.CHUNK - 1) // self.mod.CHUNK
         while True:
             led = np.zeros((nch, rows, 5, L))
             inc_sq = np.zeros((nch, rows, L))
-            dep_idx = np.zeros((nch, self.cap), np.int64)
-            dep_w = np.zeros((nch, self.cap))
+            # the kernel writes every deposit entry before it reads it: no zeroing needed
+            buf = self._dep_buf if reuse else None
+            if buf is None or buf[0].shape[0] < nch or buf[0].shape[1] != self.cap:
+                buf = (np.empty((nch, self.cap), np.int64), np.empty((nch, self.cap)))
+                if reuse:
+                    self._dep_buf = buf
+            dep_idx, dep_w = buf[0][:nch], buf[1][:nch]
             dep_n = np.zeros(nch, np.int64)
             rc = self.rcap
             rec = dict(position=np.zeros((nch, rc, 6)), direction=np.zeros((nch, rc, 3)), flux=np.zeros((nch, rc)),
@@ -199,7 +207,7 @@ class TraceContext:
                                  pk.cls_models, pk.map_data, pk.map_off, pk.map_nlat, pk.map_nlon, self.mod_kind,
                                  pk.mod_P, pk.mod_slab, pk.med_n, pk.med_alpha, pk.med_row, pk.med_sig, pk.med_alb,
                                  pk.med_g, pk.med_phase, pk.med_depol, pk.med_tgt, pk.med_nee, pk.coat_R, pk.coat_T,
-                                 pk.d_nx, pk.d_ny, pk.d_ext, self.d_off, pk.d_qe, pk.src_kind, pk.src_dir,
+                                 pk.d_nx, pk.d_ny, pk.d_ext, self.d_off, pk.d_qe, pk.d_start, pk.src_kind, pk.src_dir,
                                  pk.src_par, pk.src_R, pk.src_Th, pk.src_Tl, pk.src_n, pk.src_off, pk.src_w,
                                  pk.src_random, pk.src_toward, pk.src_pts, pk.src_pts_off, led, inc_sq, dep_idx,
                                  dep_w, dep_n, rec["position"], rec["direction"], rec["flux"], rec["line"],
@@ -299,7 +307,7 @@ def run_trace(scene, *, seed: int, level: int, halt: float, until_error: float |
     prog = progress or Progress(ctx.total)
     passes = 0
     interrupted = False
-    run = runner or (lambda c, units: (c.run_batch(f, n) for f, n in units))
+    run = runner or (lambda c, units: (c.run_batch(f, n, reuse=True) for f, n in units))
     try:
         while True:
             for t in run(ctx, list(batches(ctx.total, batch, passes))):

@@ -155,13 +155,14 @@ class Packed:
     src_w: np.ndarray               # (S, L) flux per ray, W
     src_random: np.ndarray
     src_toward: np.ndarray          # object index, -1
-    src_pts: np.ndarray             # lattice points of GRID DISK (concatenated (K, 2))
+    src_pts: np.ndarray             # row tables of lattice GRID DISKs (concatenated (K, 2), disk_lattice_rows)
     src_pts_off: np.ndarray
     n_rays_total: int = 0
     emitted_W: np.ndarray = field(default_factory=lambda: np.zeros(0))   # per line
     nee_cut: float = 0.0            # roulette of rays sent toward targets (HALT ... IMPORTANCE c)
     d_filters: list = field(default_factory=list)   # per detector: None (an image per line) or
                                                     # (filter names, (L, B) transmission matrix)
+    d_start: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))  # (D,) 1: binned by start point
 
     def _hole_bounds(self) -> np.ndarray:
         """(n, 4) per surface: the kernel's central-hole cull (trace_kernel SF_HOLE) for a plane or a conic
@@ -610,12 +611,18 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
     d_ny = np.zeros(nD, np.int32)
     d_ext = np.zeros((nD, 4))
     d_qe = np.ones((max(nD, 1), L))
+    d_start = np.zeros(nD, np.int32)
     d_filters = []
     for d, (i, obj) in enumerate(det_rows):
         f = obj.detector.filters
         d_filters.append(None if not f else ([n for n, _ in f], np.array([t for _, t in f], float).T.copy()))
         if obj.detector.qe is not None:
             d_qe[d] = obj.detector.qe
+        d_obj[d], d_nx[d], d_ny[d] = i, obj.detector.nx, obj.detector.ny
+        if obj.detector.start is not None:    # DETECTOR ... START: binned by the rays' start points, any object
+            d_start[d] = 1
+            d_ext[d] = obj.detector.start
+            continue
         ap = next(s.aperture for s in obj.surfaces if s.aperture is not None)
         if ap.kind == "RECT":
             hx, hy = ap.params
@@ -623,7 +630,6 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
             hx, hy = ap.params
         else:
             hx = hy = ap.params[-1]
-        d_obj[d], d_nx[d], d_ny[d] = i, obj.detector.nx, obj.detector.ny
         d_ext[d] = (-hx, hx, -hy, hy)
 
     src = _pack_sources(scene, lines, widths, obj_index)
@@ -642,7 +648,7 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
                   map_data, map_off, map_nlat, map_nlon,
                   mod_kind, mod_P, mod_slab, [scene.models[m].name for m in used_models],
                   d_obj, d_nx, d_ny, d_ext, d_qe, [scene.objects[obj_keys[i]].name for i, _ in det_rows],
-                  d_filters=d_filters, nee_cut=float(getattr(scene, 'importance_cut', 0.0)), **src)
+                  d_filters=d_filters, d_start=d_start, nee_cut=float(getattr(scene, 'importance_cut', 0.0)), **src)
     feats.shells = bool(np.any(shell_families(pk)[0] >= 0))
     return pk
 
@@ -681,16 +687,12 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
                 if g["random"]:
                     n = g["rays"]
                 else:
-                    h = math.sqrt(area / g["rays"])
-                    m = int(math.ceil(g["radius"] / h)) + 1
-                    xs = (np.arange(-m, m + 1) * h)
-                    X, Y = np.meshgrid(xs, xs)
-                    keep = X ** 2 + Y ** 2 <= g["radius"] ** 2
-                    lat = np.stack([X[keep], Y[keep]], axis=1)
-                    pts.append(lat)
-                    n = len(lat)
+                    rows, h = disk_lattice_rows(g["radius"], g["rays"])
+                    par[1], par[2] = h, len(rows) - 1
+                    pts.append(rows)
+                    n = int(rows[-1, 0])
             pts_off.append(npts)
-            npts += n if (kind.startswith("GRID DISK") and not g["random"]) else 0
+            npts += len(pts[-1]) if (kind.startswith("GRID DISK") and not g["random"]) else 0
             out["src_random"][i] = int(g["random"])
             dk = kind.split("+")[1]
             if dk == "DIRECTION":
@@ -751,6 +753,34 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
     out["n_rays_total"] = int(total)
     out["emitted_W"] = emitted
     return out
+
+
+def disk_lattice_rows(radius: float, rays: int):
+    """The square lattice of a regular GRID DISK, as a table of its rows: ((K + 1, 2) array, spacing h).
+
+    The lattice is the points (a h, b h), a and b integers, with (a h)^2 + (b h)^2 <= radius^2 and
+    h = sqrt(pi radius^2 / rays), ordered by row (b ascending) and along a row (a ascending).  Row k holds
+    b = table[k, 1] and its points start at ray table[k, 0]; the last entry's start is the number of points.
+    A row is symmetric (-a_max .. a_max), so its start and the next one's give a_max: the kernel turns a ray
+    index into its point in O(log K) with O(sqrt(rays)) memory (the points themselves are never stored, so
+    memory does not grow with the ray count)."""
+    h = math.sqrt(math.pi * radius ** 2 / rays)
+    m = int(math.ceil(radius / h)) + 1
+    xs = np.arange(-m, m + 1) * h
+    r2 = radius ** 2
+    counts = np.zeros(2 * m + 1, np.int64)
+    xs2 = xs ** 2
+    blk = max(1, (1 << 18) // (2 * m + 1))   # blocks of rows: temporaries of ~2 MB whatever the ray count
+    for k0 in range(0, 2 * m + 1, blk):
+        ys = xs[k0:k0 + blk]
+        counts[k0:k0 + len(ys)] = np.count_nonzero(xs2[None, :] + (ys ** 2)[:, None] <= r2, axis=1)
+    keep = counts > 0
+    b = np.arange(-m, m + 1)[keep]
+    c = counts[keep]
+    table = np.zeros((len(c) + 1, 2))
+    table[1:, 0] = np.cumsum(c)
+    table[:-1, 1] = b
+    return table, h
 
 
 def _inv_rotate(R, v):

@@ -481,9 +481,21 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
             lx = src_par[s, 0] * x
             ly = src_par[s, 0] * y
         else:
-            k = src_pts_off[s] + q
-            lx = src_pts[k, 0]
-            ly = src_pts[k, 1]
+            # the lattice's row table (irtlang.compile.pack.disk_lattice_rows): the row that holds point q
+            r0 = src_pts_off[s]
+            lo = 0
+            hi = int(src_par[s, 2])        # rows; entry hi is the end marker
+            while hi - lo > 1:
+                mid = (lo + hi) >> 1
+                if src_pts[r0 + mid, 0] <= q:
+                    lo = mid
+                else:
+                    hi = mid
+            start = src_pts[r0 + lo, 0]
+            amax = (src_pts[r0 + lo + 1, 0] - start - 1.0) * 0.5
+            h = src_par[s, 1]
+            lx = (q - start - amax) * h
+            ly = src_pts[r0 + lo, 1] * h
     elif kind == 2:  # EMITTING SPHERE: a point on the sphere, its outward normal
         x, y, z = uniform_sphere(u0, u1)
         lx = src_par[s, 0] * x
@@ -660,7 +672,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                 mod_kind, mod_P, mod_slab,
                 med_n, med_alpha, med_row, med_sig, med_alb, med_g, med_phase, med_depol, med_tgt, med_nee,
                 coat_R, coat_T,
-                d_nx, d_ny, d_ext, d_off, d_qe,
+                d_nx, d_ny, d_ext, d_off, d_qe, d_start,
                 src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random, src_toward,
                 src_pts, src_pts_off,
                 led, inc_sq, dep_idx, dep_w, dep_n, rec_pos, rec_dir, rec_w, rec_line, rec_src, rec_obj, rec_ev,
@@ -880,11 +892,15 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                         x1 = d_ext[dd, 1]
                         y0 = d_ext[dd, 2]
                         y1 = d_ext[dd, 3]
-                        if lx >= x0 and lx <= x1 and ly >= y0 and ly <= y1:
+                        # DETECTOR ... START: the pixel of where the ray started (its source's own frame), the
+                        # image of an adjoint (detector-side) trace; else the pixel of the hit point
+                        ux = sx0 if d_start[dd] else lx
+                        uy = sy0 if d_start[dd] else ly
+                        if ux >= x0 and ux <= x1 and uy >= y0 and uy <= y1:
                             nx = d_nx[dd]
                             ny = d_ny[dd]
-                            ix = min(nx - 1, int((lx - x0) / (x1 - x0) * nx))
-                            iy = min(ny - 1, int((ly - y0) / (y1 - y0) * ny))
+                            ix = min(nx - 1, int((ux - x0) / (x1 - x0) * nx))
+                            iy = min(ny - 1, int((uy - y0) / (y1 - y0) * ny))
                             if ndep < cap:
                                 dep_idx[c, ndep] = d_off[dd] + (line * ny + iy) * nx + ix
                                 dep_w[c, ndep] = w * d_qe[dd, line]
@@ -1076,11 +1092,14 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                 flags |= FL_SCATTERED
                                 evkind = EV_S
                                 excl = sc_tgt
-                        if w > 0.0:
-                            m = math.sqrt(dx * dx + dy * dy + dz * dz)
-                            dx /= m
-                            dy /= m
-                            dz /= m
+                            # a model's sample is made unit here (a reflection off a unit normal and `refract`,
+                            # which normalizes, keep |d| = 1 to rounding: 1e-16 per event, not renormalized)
+                            m2 = dx * dx + dy * dy + dz * dz
+                            if m2 > 0.0 and m2 != 1.0:
+                                g = 1.0 / math.sqrt(m2)
+                                dx *= g
+                                dy *= g
+                                dz *= g
                     if F_HISTORY and ev - 1 < H:
                         hist[ev - 1] = o * 8 + evkind
                     jlast = j      # the surface just left: its departure root is dropped on the next search
@@ -1119,7 +1138,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
             for q in range(nt):
                 inc_sq[c, touched[q], line] += acc[touched[q]] * acc[touched[q]]
                 acc[touched[q]] = 0.0
-            if ndep <= cap:
+            if ndep - dep0 > 1 and ndep <= cap:
                 # one deposit per pixel and source ray (reduce_batch squares each deposit)
                 kk = dep0
                 for qa in range(dep0, ndep):

@@ -487,8 +487,13 @@ def _rotate(it, b, st):
                           (Clause("QE", (PL("qe", check=unit_interval),), doc="quantum efficiency per line"),
                            Clause("FILTERS", (Param("filters", "refs", None, ns="spectrum"),),
                                   doc="one image per filter: each line's flux times the filter's transmission "
-                                      "(SPECTRUM names)"))),
-         "geometry", "the current object records an image of nx x ny pixels [QE per line] [FILTERS: one per filter]")
+                                      "(SPECTRUM names)"),
+                           Clause("START", (V("x_min", LENGTH), V("x_max", LENGTH), V("y_min", LENGTH),
+                                            V("y_max", LENGTH)),
+                                  doc="bin by where the rays that arrive started (their source's own frame), over "
+                                      "this window: the image of an adjoint (detector-side) trace"))),
+         "geometry", "the current object records an image of nx x ny pixels [QE per line] [FILTERS: one per filter] "
+                     "[START: of the rays' start points]")
 def _detector(it, b, st):
     obj = _current(it, b)
     nx = b["nx"]
@@ -497,12 +502,13 @@ def _detector(it, b, st):
         if v < 1:
             raise error(b.span_of(lab), f"a detector needs at least 1 pixel, got {v}")
     ap = [s.aperture for s in obj.surfaces if s.aperture is not None]
-    if not ap and not any(s.kind in ("PLANE", "CONIC") for s in obj.surfaces):
-        raise error(b.span, f"object {obj.name} has no flat aperture to tile with pixels",
-                    "a DETECTOR needs a PLANE or CONIC with RECT, DISK, ANNULUS or ELLIPSE")
-    if not ap:
-        raise error(b.span, f"object {obj.name} has no aperture: the pixel grid needs its bounding rectangle",
-                    "add RECT hx hy (or DISK r) to the surface")
+    if "x_min" not in b:     # START gives the pixel grid its window: any object may then record
+        if not ap and not any(s.kind in ("PLANE", "CONIC") for s in obj.surfaces):
+            raise error(b.span, f"object {obj.name} has no flat aperture to tile with pixels",
+                        "a DETECTOR needs a PLANE or CONIC with RECT, DISK, ANNULUS or ELLIPSE (or a START window)")
+        if not ap:
+            raise error(b.span, f"object {obj.name} has no aperture: the pixel grid needs its bounding rectangle",
+                        "add RECT hx hy (or DISK r) to the surface")
     qe = b["qe"].values if "qe" in b else None
     filters = None
     if "filters" in b:
@@ -514,7 +520,16 @@ def _detector(it, b, st):
                 raise error(b.span_of("filters"), f"filter {sp.name} has a negative transmission")
             filters.append((sp.name, t))
         filters = tuple(filters)
-    _update(it, obj, detector=M.Detector(nx, ny, b.span, qe, filters))
+    start = None
+    if "x_min" in b:
+        start = (b["x_min"], b["x_max"], b["y_min"], b["y_max"])
+        for lo, hi in (("x_min", "x_max"), ("y_min", "y_max")):
+            if not b[lo] < b[hi]:
+                raise error(b.span_of(hi), f"DETECTOR START needs {lo} < {hi}, got {lo} = "
+                            f"{Quantity(b[lo], LENGTH).describe(it.state.units)} and {hi} = "
+                            f"{Quantity(b[hi], LENGTH).describe(it.state.units)}",
+                            "START x_min x_max y_min y_max: the window of start points, in the source's own frame")
+    _update(it, obj, detector=M.Detector(nx, ny, b.span, qe, filters, start))
 
 
 @command("GROUP", Form((Name("name"),)), "geometry", "objects up to END GROUP live in the group's own frame")

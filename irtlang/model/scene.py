@@ -162,6 +162,7 @@ class Detector:
     span: Span = NO_SPAN
     qe: tuple | None = None     # quantum efficiency per line, applied to the image
     filters: tuple | None = None    # ((name, transmission per line), ...): one image per filter
+    start: tuple | None = None  # (x_min, x_max, y_min, y_max) m: binned by the rays' start points (adjoint image)
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ import pytest
 from irtlang.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples_scripts"
-MINE = ["singlet_spot", "glass_plate", "prism_tir", "paraboloid_focus", "mesh_object"]
+MINE = ["singlet_spot", "glass_plate", "prism_tir", "paraboloid_focus", "mesh_object", "adjoint_sphere"]
 
 
 def run_example(name, tmp_path, capsys):
@@ -118,8 +118,31 @@ def _mesh(out, d, led):
     assert b["reflected_W"] == pytest.approx(0.6 * b["incident_W"], rel=1e-12)
 
 
+def _adjoint(out, d, led):
+    """The adjoint image is the radiance (W/m2/sr, E = 1 W/m2): at most A/pi = 0.190986 (the sub-solar point), and
+    sum(L Omega_pix) is the Lambert sphere's flux density at the pinhole, (2/3) A E (R/D)^2 Phi(57.7 deg)
+    (ORACLES.md) times 1 + 2.75e-4 at D = 1000 R (the finite distance).  The 4 x 4 lattice per pixel is
+    deterministic; what is left is its quadrature error on the limb and terminator pixels (2.5e-5 when this was
+    written): 1e-3 allowed.  tests/physics/test_adjoint_image.py checks every pixel."""
+    import numpy as np
+
+    img = np.load(d / "adjoint.npy")
+    assert img.shape == (1, 64, 64)
+    A, H, F, D = 0.6, 1.05, 1000.0, 1000.0
+    assert 0.95 * A / math.pi < img.max() <= A / math.pi * (1 + 1e-5)
+    c = -H + 2 * H * (np.arange(64) + 0.5) / 64
+    X, Y = np.meshgrid(c, c)
+    om = (2 * H / 64) ** 2 * F / (F * F + X * X + Y * Y) ** 1.5
+    a = math.radians(57.7)
+    phi = (math.sin(a) + (math.pi - a) * math.cos(a)) / math.pi
+    oracle = 2 / 3 * A / D ** 2 * phi * (1 + 2.75e-4)
+    assert float((img[0] * om).sum()) == pytest.approx(oracle, rel=1e-3)
+    # the sun is at -x from the camera's axis and the pinhole inverts: the lit side is at the detector's +x
+    assert img[0, :, 40:].sum() > 3 * img[0, :, :24].sum()
+
+
 CHECKS = {"singlet_spot": _singlet, "glass_plate": _glass_plate, "prism_tir": _prism,
-          "paraboloid_focus": _paraboloid, "mesh_object": _mesh}
+          "paraboloid_focus": _paraboloid, "mesh_object": _mesh, "adjoint_sphere": _adjoint}
 
 
 OTHERS = sorted(p.stem for p in EXAMPLES.glob("*.inr")

@@ -50,7 +50,7 @@ def test_quick_run_writes_a_report_and_leaves_the_readme_alone(tmp_path):
     before = readme.read_text() if readme.exists() else None
     assert bench_main.main(["--quick", "--only", "bench_earth", "--out", str(tmp_path), "--no-readme"]) == 0
     text = (tmp_path / "REPORT.md").read_text()
-    assert "# Benchmarks" in text and "## Earth frame (hook)" in text and "peers:" in text
+    assert "# Benchmarks" in text and "## The Earth (benchmarks/bench_earth.py)" in text and "peers:" in text
     assert (readme.read_text() if readme.exists() else None) == before
 
 
