@@ -75,6 +75,8 @@ def error_against_time(rays=RAYS) -> list:
     """One frame at each Sun-ray count: wall time, relative standard error of the disk flux, figure of merit
     1 / (err^2 t).  The error must fall as 1/sqrt(N) (the fitted slope of log err against log N near -0.5)."""
     out = []
+    # untimed: these settings (no ray records) use another specialized kernel, compiled on its first run
+    earth_frame(settings=("hours=1", f"sun_rays={rays[0]}", "save_rays=0"))
     for n in rays:
         r = earth_frame(settings=("hours=1", f"sun_rays={n}", "save_rays=0"), keep=_pupil_flux)
         if r["rc"] != 0:
