@@ -87,6 +87,65 @@ def error_against_time(rays=RAYS) -> list:
     return out
 
 
+IMAGE_BANDS = (450, 550, 650)
+CAMERA_RAYS = (1, 4)        # camera rays per pixel and band line
+FORWARD_SUN_RAYS = 800      # the forward trace's default
+
+
+def _lit_error(out: Path, folder: str) -> dict:
+    """Median per-pixel relative standard error on the lit disk at 450/550/650 nm, and the empty lit pixels.
+
+    The lit disk is taken from the camera frame of the same hour when there is one (pixels above 2 % of the
+    550 nm maximum), so the forward frames are judged on the same pixels; a forward pixel with no sample counts
+    as an error of 1 (100 %)."""
+    import numpy as np
+
+    res = {}
+    cam = sorted((out / "frames").glob("*_550nm.npy")) if (out / "frames").exists() else []
+    for band in IMAGE_BANDS:
+        errs, empty, n_lit = [], 0, 0
+        for f in sorted((out / folder).glob(f"*_{band}nm.npy")):
+            img = np.load(f)[0]
+            se = np.load(f.with_name(f.stem + ".stderr.npy"))[0]
+            ref = np.load(cam[0])[0] if cam else img
+            if ref.shape != img.shape:       # forward frames are the whole detector: cut the camera's window
+                n = ref.shape[0]
+                c0 = img.shape[0] // 2 - n // 2
+                img, se = img[c0:c0 + n, c0:c0 + n], se[c0:c0 + n, c0:c0 + n]
+            lit = ref > 0.02 * ref.max()
+            rel = np.where(img > 0, se / np.where(img > 0, img, 1.0), 1.0)
+            errs.append(float(np.median(rel[lit])))
+            empty += int(np.count_nonzero(img[lit] <= 0))
+            n_lit += int(lit.sum())
+        if errs:
+            res[band] = {"median_rel_err": max(errs), "empty_lit_pixels": empty, "lit_pixels": n_lit}
+    return res
+
+
+def image_error_against_time() -> dict:
+    """One frame: the per-pixel error of the band images, camera-side (at each CAMERA_RAYS) against the forward
+    trace's own images (forward_frames=1), with wall times and the figure of merit 1 / (err^2 t) of the 550 nm
+    image.  Each is a whole `irt run` (the forward run also writes camera frames: its time is the forward trace
+    alone only approximately, so its figure of merit is an upper bound)."""
+    out = {"camera": [], "forward": None}
+    earth_frame(settings=("hours=1", "sun_rays=50", "save_rays=0", "camera_rays=1"))      # untimed: compile
+    for n in CAMERA_RAYS:
+        r = earth_frame(settings=("hours=1", "sun_rays=50", "save_rays=0", f"camera_rays={n}"),
+                        keep=lambda o: {"err": _lit_error(o, "frames")})
+        if r["rc"] == 0:
+            e = r["err"].get(550, {}).get("median_rel_err", float("nan"))
+            out["camera"].append({"rays": n, "s": r["s"], "err": r["err"], "fom": 1.0 / (e * e * r["s"])})
+        else:
+            out["camera"].append({"rays": n, "rc": r["rc"], "tail": r["tail"]})
+    r = earth_frame(settings=("hours=1", f"sun_rays={FORWARD_SUN_RAYS}", "save_rays=0", "forward_frames=1",
+                              "camera_rays=1"),
+                    keep=lambda o: {"err": _lit_error(o, "frames_forward")})
+    if r["rc"] == 0:
+        e = r["err"].get(550, {}).get("median_rel_err", float("nan"))
+        out["forward"] = {"rays": FORWARD_SUN_RAYS, "s": r["s"], "err": r["err"], "fom": 1.0 / (e * e * r["s"])}
+    return out
+
+
 def run(quick: bool = False) -> dict:
     if not SCRIPT.exists():
         return {"skipped": f"{SCRIPT.relative_to(ROOT)} does not exist yet (the Earth system model has not landed)"}
@@ -97,6 +156,7 @@ def run(quick: bool = False) -> dict:
     r["day"] = day
     r["settings"] = list(SETTINGS)
     r["series"] = error_against_time()
+    r["images"] = image_error_against_time()
     ok = [x for x in r["series"] if "rel_err" in x]
     if len(ok) >= 2:
         import numpy as np
@@ -134,6 +194,24 @@ def report(r: dict) -> str:
         if "slope" in r:
             lines += ["", f"Fitted slope of log(error) against log(rays): {r['slope']:.3f} (1/sqrt(N): -0.5)."]
         lines.append("")
+    im = r.get("images")
+    if im:
+        lines += ["Band images of one frame: median per-pixel relative standard error on the lit disk (the worst of "
+                  "the hour's frame), empty lit pixels, wall time of the whole `irt run` and the figure of merit "
+                  "1/(err^2 t) at 550 nm; camera-side (`TRACE CAMERA`, rays per pixel and band line) against the "
+                  "forward trace's own images (target: <= 2 % at 450, 550 and 650 nm, no empty lit pixel):", "",
+                  "| estimator | rays | wall s | 450 nm | 550 nm | 650 nm | empty lit pixels | FOM (550) |",
+                  "|---|---|---|---|---|---|---|---|"]
+        rows = [("camera-side", x) for x in im["camera"]] + ([("forward", im["forward"])] if im["forward"] else [])
+        for name, x in rows:
+            if "err" not in x:
+                lines.append(f"| {name} | {x['rays']} | failed (exit {x['rc']}) | | | | | |")
+                continue
+            e = x["err"]
+            cells = " | ".join(f"{e[b]['median_rel_err']:.2%}" if b in e else "-" for b in IMAGE_BANDS)
+            empty = sum(e[b]["empty_lit_pixels"] for b in e)
+            lines.append(f"| {name} | {x['rays']} | {x['s']:.1f} | {cells} | {empty} | {x['fom']:.3g} |")
+        lines.append("")
     return "\n".join(lines)
 
 
@@ -152,6 +230,18 @@ def readme_rows(r: dict) -> list:
         rows.append(("one Earth frame: disk flux error against Sun rays per line",
                      ", ".join(f"{x['rays']}: {x['rel_err']:.2%} in {x['s']:.0f} s" for x in ok)
                      + f"; slope {r['slope']:.3f}", "error ~ 1/sqrt(N) (slope -0.5)"))
+    im = r.get("images") or {}
+    cams = [x for x in im.get("camera", []) if "err" in x]
+    if cams:
+        best = cams[-1]
+        fw = im.get("forward")
+        rows.append(("one Earth frame's band images: median per-pixel error on the lit disk (450/550/650 nm)",
+                     f"camera-side, {best['rays']} ray(s)/pixel/line: "
+                     + "/".join(f"{best['err'][b]['median_rel_err']:.1%}" for b in IMAGE_BANDS if b in best['err'])
+                     + f" in {best['s']:.0f} s"
+                     + (f"; forward: {fw['err'][550]['median_rel_err']:.0%} at 550 nm, FOM ratio "
+                        f"{best['fom'] / fw['fom']:.3g}x" if fw and 550 in fw["err"] else ""),
+                     "<= 2 %, no empty lit pixel"))
     return rows
 
 

@@ -126,6 +126,10 @@ class Engine:
             keep = set(self.consider)
             sc = M.replace(sc, objects=M.frozen_params({k: v for k, v in sc.objects.items() if k in keep}))
         p = step.params
+        cam = p.get("camera")
+        if cam is not None:
+            self._trace_camera(step, sc, cam)
+            return
         try:
             res = run_trace(sc, seed=sc.seed, level=p["level"], halt=p["halt"], until_error=p["until_error"],
                             until_target=p["until_target"], records=self.need_records, history=self.need_history,
@@ -151,6 +155,65 @@ class Engine:
         if lost > 0:
             print(f"warning: {lost:.3g} W of ray flux was LOST to numerical failures "
                   f"(see STATS LEDGER)", file=sys.stderr)
+
+    def _trace_camera(self, step, sc, cam):
+        """TRACE CAMERA: a camera-side (adjoint) trace (irtlang/model/camera.py).  Its image becomes the camera
+        object's, so EXPORT, ANALYZE and the REPL see it as a forward trace's; per-pixel standard errors use the
+        number of rays each pixel started (s^2 per traced line), not the whole trace's."""
+        import dataclasses
+
+        from .compile.pack import MissingFeature
+        from .model.camera import camera_scene
+        from .tracer import run_trace
+
+        p = step.params
+        csc, info = camera_scene(sc, cam, step.span)
+        try:
+            res = run_trace(csc, seed=csc.seed, level=p["level"], halt=p["halt"], records=False, history=False,
+                            progress=self.progress, runner=self.runner)
+        except MissingFeature as e:
+            raise MissingCapability(e.span, e.what, e.capability) from None
+        img, img2 = res.images.pop(csc.objects[info["light"]].name)
+        n_p = info["rays_per_pixel_line"] * info["samples"]      # rays started in each pixel
+        if n_p > 1:
+            var = np.maximum(img2 - img * img / n_p, 0.0) * (n_p / (n_p - 1))
+        else:
+            var = img2
+        res.images[info["camera"]] = (img, var)
+        self._camera_sun_variables(csc, res, info, interp, step)
+        res.packed = dataclasses.replace(res.packed, detector_names=[info["camera"]])
+        res.camera = info
+        self.result = res
+        self.scene = csc
+        self.rays_traced += res.n_traced
+        self.folder.info["rays_traced"] = self.rays_traced
+        i0, i1, j0, j1 = info["window"]
+        rel = np.divide(np.sqrt(var), img, out=np.full_like(img, np.inf), where=img > 0)
+        lit = img > 0.02 * img.max(axis=(1, 2), keepdims=True) if img.size else img > 0
+        med = float(np.median(rel[lit])) if lit.any() else float("nan")
+        how = (f"{info['rays_per_pixel_line']} x {info['spectral']} per pixel, lines drawn from {info['lines']}"
+               if info["spectral"] else f"{info['rays_per_pixel_line']} per pixel and line, {info['lines']} lines")
+        self.out(f"TRACE CAMERA {info['camera']}: {res.n_traced:,} camera rays ({how}, "
+                 f"pixels {i0}..{i1 - 1} x {j0}..{j1 - 1}); "
+                 f"{img.sum():.6g} W on the window, median relative standard error {med:.2%} on lit pixels")
+
+    def _camera_sun_variables(self, csc, res, info, interp, step):
+        """CAMERA_SUN[_filter]: the light's irradiance at 1 AU summed over each image's band (W/m2), weighted as
+        the image is (filter transmission times QE): the white reference of an I/F (docs/tracer.md)."""
+        from .compile.pack import SUN_AREA_1AU, _line_power
+        from .lang.units import NONE, Quantity
+
+        src = csc.sources[0]
+        pk = res.packed
+        E = _line_power(csc, src.flux, SUN_AREA_1AU, pk.line_width_nm) / SUN_AREA_1AU
+        det = csc.objects[next(k for k, o in csc.objects.items() if o.name == info["light"])].detector
+        qe = np.asarray(det.qe if det.qe is not None else np.ones(len(E)), float)
+        if det.filters:
+            for name, tr in det.filters:
+                interp.assign(f"CAMERA_SUN_{name}", Quantity(float(np.sum(E * qe * np.asarray(tr, float))), NONE),
+                              step.span)
+        else:
+            interp.assign("CAMERA_SUN", Quantity(float(np.sum(E * qe)), NONE), step.span)
 
     # ------------------------------------------------------------------ record selection
     def _selected(self, step, what, obj_filter=None) -> np.ndarray:

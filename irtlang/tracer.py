@@ -209,7 +209,7 @@ class TraceContext:
                                  pk.med_g, pk.med_phase, pk.med_depol, pk.med_tgt, pk.med_nee, pk.coat_R, pk.coat_T,
                                  pk.d_nx, pk.d_ny, pk.d_ext, self.d_off, pk.d_qe, pk.d_start, pk.src_kind, pk.src_dir,
                                  pk.src_par, pk.src_R, pk.src_Th, pk.src_Tl, pk.src_n, pk.src_off, pk.src_w,
-                                 pk.src_random, pk.src_toward, pk.src_pts, pk.src_pts_off, led, inc_sq, dep_idx,
+                                 pk.src_random, pk.src_toward, pk.src_pts, pk.src_pts_off, pk.src_lmap, led, inc_sq, dep_idx,
                                  dep_w, dep_n, rec["position"], rec["direction"], rec["flux"], rec["line"],
                                  rec["source"], rec["object"], rec["events"], rec["flags"], rec["history"],
                                  rec["opl"], rec["start"], rec_n)

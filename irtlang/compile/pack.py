@@ -163,6 +163,7 @@ class Packed:
     d_filters: list = field(default_factory=list)   # per detector: None (an image per line) or
                                                     # (filter names, (L, B) transmission matrix)
     d_start: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))  # (D,) 1: binned by start point
+    src_lmap: np.ndarray = field(default_factory=lambda: np.zeros((0, 1), np.int64))  # (S, L) traced lines, in order
 
     def _hole_bounds(self) -> np.ndarray:
         """(n, 4) per surface: the kernel's central-hole cull (trace_kernel SF_HOLE) for a plane or a conic
@@ -662,6 +663,7 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
                src_R=np.zeros((S, 9)), src_Th=np.zeros((S, 3)), src_Tl=np.zeros((S, 3)), src_n=np.zeros(S, np.int64),
                src_off=np.zeros(S, np.int64), src_w=np.zeros((S, L)), src_random=np.zeros(S, np.int32),
                src_toward=np.full(S, -1, np.int32))
+    out["src_lmap"] = np.tile(np.arange(L, dtype=np.int64), (S, 1))
     pts, pts_off = [], []
     total = 0
     emitted = np.zeros(L)
@@ -671,6 +673,53 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
         kind = s.kind
         par = out["src_par"][i]
         area = None          # the source's emitting area for FLUX SPECTRUM in W/m2/nm
+        nl = L               # lines this source traces
+        if kind == "CAMERA":
+            # camera-side (adjoint) rays: s x s stratified points per pixel of the camera's window, Lambertian
+            # toward the aim object, weighted by pi A_pix L_light(line) / s^2 (irtlang/model/camera.py)
+            pts_off.append(npts)
+            out["src_kind"][i] = SRC_GRID_RECT
+            out["src_dir"][i] = DIR_LAMBERT
+            out["src_random"][i] = 2
+            par[:4] = p["extent"]
+            par[4:6] = p["nx"] * p["sub"], p["ny"] * p["sub"]
+            par[8] = p["side"]
+            out["src_toward"][i] = obj_index[p["aim"]]
+            # the light's radiance per line, L = P / (4 pi R^2) / pi, times pi A_pix / s^2 per camera ray
+            P = _line_power(scene, p["light_flux"], SUN_AREA_1AU, widths)
+            wl = P * p["pixel_area"] / (4 * math.pi * p["light_radius"] ** 2 * p["sub"] ** 2)
+            resp = np.asarray(p["response"], float)        # (L, B): each image's weight per line
+            wl[~(resp.max(axis=1) > 0.0)] = 0.0
+            emitted += wl * p["nx"] * p["ny"] * p["sub"] ** 2      # the expected emission of every scheme below
+            if p["spectral"] > 0 and np.any(wl > 0):
+                # K spectral samples per pixel stratum, drawn from the images' weights, each image an equal share
+                bw = resp * (wl / max(wl.max(), 1e-300))[:, None]
+                tot = bw.sum(axis=0)
+                pmf = (bw[:, tot > 0] / tot[tot > 0]).sum(axis=1)
+                pmf /= pmf.sum()
+                keep = np.nonzero(pmf > 0)[0]
+                cdf = np.cumsum(pmf[keep])
+                cdf[-1] = 1.0
+                rows = np.column_stack([cdf, keep.astype(float)])
+                pts.append(rows)
+                npts += len(rows)
+                K = int(p["spectral"])
+                par[9], par[10] = len(rows), K
+                out["src_random"][i] = 3
+                wl = np.where(pmf > 0, wl / np.where(pmf > 0, pmf, 1.0) / K, 0.0)
+                nl = K
+            else:
+                lines_used = [k for k in range(L) if wl[k] > 0.0]
+                nl = len(lines_used)
+                out["src_lmap"][i, :nl] = lines_used
+            n = p["nx"] * p["ny"] * p["sub"] ** 2
+            R, Th, Tl = world_frame(scene, p["frame"], s.group)
+            out["src_R"][i], out["src_Th"][i], out["src_Tl"][i] = R, Th, Tl
+            out["src_n"][i] = n
+            out["src_off"][i] = total
+            total += n * nl
+            out["src_w"][i] = wl
+            continue
         if kind.startswith("GRID"):
             g, d = p["grid"], p["direction"]
             frame = axis_frame(g["axis"], g["position"])
@@ -714,7 +763,7 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
                 out["src_kind"][i] = SRC_SPHERE
                 frame = M.Transform(T=p["centre"])
                 par[0] = p["radius"]
-                area = 4 * math.pi * (1.495978707e11) ** 2     # FLUX SPECTRUM: irradiance at 1 AU
+                area = SUN_AREA_1AU
             elif kind == "EMITTING DISK":
                 out["src_kind"][i] = SRC_DISK
                 frame = axis_frame(p["axis"], p["position"])
@@ -733,19 +782,7 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
         out["src_n"][i] = n
         out["src_off"][i] = total
         total += n * L
-        # flux per ray, per line
-        f = s.flux
-        if f.kind == "total":
-            per_line = np.full(L, f.value / L)
-        else:
-            sp = scene.spectra[f.spectrum]
-            vals = np.asarray(sp.on_lines, float) * widths
-            if sp.unit == "W/m2/nm":
-                if area is None:
-                    raise error(f.span, f"FLUX SPECTRUM {sp.name} is an irradiance (W/m2/nm), but an EMITTING "
-                                "POINT has no area", "use FLUX TOTAL, or a TABLE spectrum in W/nm")
-                vals = vals * area
-            per_line = vals
+        per_line = _line_power(scene, s.flux, area, widths)     # flux per ray, per line
         out["src_w"][i] = per_line / n
         emitted += per_line
     out["src_pts"] = np.ascontiguousarray(np.concatenate(pts)) if pts else np.zeros((0, 2))
@@ -753,6 +790,25 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
     out["n_rays_total"] = int(total)
     out["emitted_W"] = emitted
     return out
+
+
+SUN_AREA_1AU = 4 * math.pi * (1.495978707e11) ** 2    # FLUX SPECTRUM on an EMITTING SPHERE: irradiance at 1 AU
+
+
+def _line_power(scene: M.Scene, f: M.Flux, area, widths) -> np.ndarray:
+    """A source's emitted power per line (W): FLUX TOTAL split evenly, or FLUX SPECTRUM times the line widths
+    (times the emitting area for an irradiance in W/m2/nm)."""
+    L = len(widths)
+    if f.kind == "total":
+        return np.full(L, f.value / L)
+    sp = scene.spectra[f.spectrum]
+    vals = np.asarray(sp.on_lines, float) * widths
+    if sp.unit == "W/m2/nm":
+        if area is None:
+            raise error(f.span, f"FLUX SPECTRUM {sp.name} is an irradiance (W/m2/nm), but an EMITTING "
+                        "POINT has no area", "use FLUX TOTAL, or a TABLE spectrum in W/nm")
+        vals = vals * area
+    return vals
 
 
 def disk_lattice_rows(radius: float, rays: int):

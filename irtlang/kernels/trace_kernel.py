@@ -440,7 +440,7 @@ def _turn(dx, dy, dz, mu, u):
 
 @numba.njit(cache=True, inline="always")
 def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random, src_toward,
-         src_pts, src_pts_off, o_bc, o_br, src_dw):
+         src_pts, src_pts_off, o_bc, o_br, src_dw, src_lmap):
     """Ray i: (source, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, sx, sy); (sx, sy) is the start point
     in the source's own frame (the pupil coordinates of a GRID).  Ids past `total` start another
     pass over the sources (TRACE UNTIL ERROR) with fresh random numbers."""
@@ -450,8 +450,25 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
         s += 1
     j = ii - src_off[s]
     n = src_n[s]
-    line = 0 if j < n else j // n
-    q = j - line * n
+    slot = 0 if j < n else j // n
+    q = j - slot * n
+    if src_random[s] == 3:
+        # a camera's spectral samples: slot k of K draws its line from the bands' weights, stratified over
+        # their cumulative distribution (rows (cdf, line) in src_pts; src_w holds weight / (pmf K))
+        ul, _ul = uniform2(seed, i, 0, 2)
+        u = (slot + ul) / src_par[s, 10]
+        r0 = src_pts_off[s]
+        lo = 0
+        hi = int(src_par[s, 9]) - 1
+        while lo < hi:
+            mid = (lo + hi) >> 1
+            if src_pts[r0 + mid, 0] < u:
+                lo = mid + 1
+            else:
+                hi = mid
+        line = int(src_pts[r0 + lo, 1])
+    else:
+        line = src_lmap[s, slot]     # the source's traced lines (all of them, or a camera's band lines)
     w = src_w[s, line]
     kind = src_kind[s]
     u0, u1 = uniform2(seed, i, 0, 0)
@@ -471,8 +488,12 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
         else:
             iy = q // nx
             ix = q - iy * nx
-            fx = (ix + 0.5) / nx
-            fy = (iy + 0.5) / ny
+            if src_random[s] >= 2:     # stratified: one random point in each lattice cell (camera pixels)
+                fx = (ix + u0) / nx
+                fy = (iy + u1) / ny
+            else:
+                fx = (ix + 0.5) / nx
+                fy = (iy + 0.5) / ny
         lx = src_par[s, 0] + (src_par[s, 1] - src_par[s, 0]) * fx
         ly = src_par[s, 2] + (src_par[s, 3] - src_par[s, 2]) * fy
     elif kind == 1:  # GRID DISK
@@ -539,6 +560,8 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
         u2, u3 = uniform2(seed, i, 0, 1)      # the direction's numbers: drawn only by the sources that use them
         if kind == 4:
             ax, ay, az = src_par[s, 2], src_par[s, 3], src_par[s, 4]
+        elif kind == 0:     # a Lambertian GRID RECT (a camera's pixels): emits on the side src_par[s, 8] (+-1)
+            ax, ay, az = 0.0, 0.0, src_par[s, 8]
         else:
             ax, ay, az = ldx, ldy, ldz
         nwx = src_R[s, 0] * ax + src_R[s, 1] * ay + src_R[s, 2] * az
@@ -674,7 +697,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                 coat_R, coat_T,
                 d_nx, d_ny, d_ext, d_off, d_qe, d_start,
                 src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random, src_toward,
-                src_pts, src_pts_off,
+                src_pts, src_pts_off, src_lmap,
                 led, inc_sq, dep_idx, dep_w, dep_n, rec_pos, rec_dir, rec_w, rec_line, rec_src, rec_obj, rec_ev,
                 rec_flags, rec_hist, rec_opl, rec_start, rec_n):
     """Trace source rays first .. first+n-1 with every path they spawn.  Per chunk c: led[c] (rows, 5, L),
@@ -706,7 +729,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
             i = first + ii
             s, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, sx0, sy0 = _gen(
                 i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random,
-                src_toward, src_pts, src_pts_off, o_bc, o_br, src_dw)
+                src_toward, src_pts, src_pts_off, o_bc, o_br, src_dw, src_lmap)
             led[c, r_emit, C_INC, line] += w
             nt = 0
             dep0 = ndep

@@ -662,9 +662,25 @@ def _halt(it, b, st):
         it.state.importance_cut = b["cut"]
 
 
+def _square(x):
+    r = math.isqrt(int(x)) if x >= 1 else 0
+    return None if r * r == x else "must be a square (1, 4, 9, 16, ...): s x s stratified rays per pixel"
+
+
 @command("TRACE", Form((), (Clause("UNTIL", (Choice("what", ("ERROR",)), V("error", check=lambda x: None if 0 < x < 1 else "must be between 0 and 100%"),
-                                            Choice("on", ("ON",)), Ref("target", "object"))),)),
-         "trace", "trace every source defined since the last TRACE")
+                                            Choice("on", ("ON",)), Ref("target", "object"))),
+                            Clause("CAMERA", (Ref("camera", "object"),),
+                                   doc="camera-side (adjoint) image on this object's DETECTOR (docs/tracer.md)"),
+                            Clause("AIM", (Ref("aim", "object"),),
+                                   doc="the object camera rays aim at (the first optical element seen from it)"),
+                            Clause("RAYS", (V("per_pixel", integer=True, check=_square),),
+                                   doc="camera rays per pixel and line: s x s stratified (default 1)"),
+                            Clause("SPECTRAL", (V("spectral", integer=True, check=positive),),
+                                   doc="k lines per camera ray position, drawn from the images' weights (default: every line)"),
+                            Clause("WINDOW", (V("i0", integer=True, check=nonneg), V("i1", integer=True, check=positive),
+                                              V("j0", integer=True, check=nonneg), V("j1", integer=True, check=positive)),
+                                   doc="only pixel columns i0..i1-1 and rows j0..j1-1 (from 0)"))),
+         "trace", "trace every source defined since the last TRACE [CAMERA obj AIM obj: a camera-side image]")
 def _trace(it, b, st):
     s = it.state
     if s.pending_grid is not None:
@@ -687,8 +703,32 @@ def _trace(it, b, st):
             if sc.toward is not None and sc.toward not in s.objects:
                 raise error(sc.span, f"SCATTER ... TOWARD '{sc.toward}' is not an object", did_you_mean(sc.toward, names))
     _check_scene(it, b)
-    it.step("TRACE", {"level": s.level, "halt": s.halt, "until_error": b.get("error"), "until_target": b.get("target")},
-            b.span)
+    camera = None
+    if "camera" in b or "aim" in b or "per_pixel" in b or "i0" in b or "spectral" in b:
+        if "camera" not in b or "aim" not in b:
+            raise error(b.span, "a camera-side TRACE needs both CAMERA obj and AIM obj",
+                        "TRACE CAMERA fpa AIM secondary [RAYS n] [SPECTRAL k] [WINDOW i0 i1 j0 j1]")
+        if "error" in b:
+            raise error(b.span, "TRACE CAMERA cannot be combined with UNTIL ERROR", "give RAYS n per pixel instead")
+        cam = s.objects[b["camera"]]
+        if cam.detector is None or cam.detector.start is not None:
+            raise error(b.span, f"TRACE CAMERA {cam.name}: the camera needs a DETECTOR PIXELS grid (without START)",
+                        "give the focal-plane object DETECTOR PIXELS nx ny", notes=[(cam.span, "the camera object")])
+        lights = [src for src in s.sources if src.kind == "EMITTING SPHERE"]
+        if len(lights) != 1 or len(s.sources) != 1:
+            raise error(b.span, f"TRACE CAMERA needs exactly one source, an EMITTING SPHERE (its light); "
+                        f"{len(s.sources)} source(s) defined", "define only EMITTING SPHERE ... (and its FLUX) before it")
+        win = (b["i0"], b["i1"], b["j0"], b["j1"]) if "i0" in b else None
+        if win is not None and not (win[0] < win[1] <= cam.detector.nx and win[2] < win[3] <= cam.detector.ny):
+            raise error(b.span, f"WINDOW {win[0]} {win[1]} {win[2]} {win[3]} is not inside the detector's "
+                        f"{cam.detector.nx} x {cam.detector.ny} pixels", "columns i0 < i1 <= nx, rows j0 < j1 <= ny")
+        camera = {"camera": b["camera"], "aim": b["aim"], "sub": math.isqrt(int(b.get("per_pixel", 1))),
+                  "window": win, "spectral": int(b.get("spectral", 0))}
+        # the light's band irradiance at 1 AU (W/m2) per image of the camera, for I/F; set by the run, 0 here
+        for fname in ([f for f, _ in cam.detector.filters] if cam.detector.filters else [""]):
+            it.assign("CAMERA_SUN" + (f"_{fname}" if fname else ""), Quantity(0.0, NONE), b.span)
+    it.step("TRACE", {"level": s.level, "halt": s.halt, "until_error": b.get("error"), "until_target": b.get("target"),
+                      "camera": camera}, b.span)
     s.sources.clear()
     s.traces += 1
 

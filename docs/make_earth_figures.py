@@ -1,0 +1,66 @@
+"""The figures of docs/earth.md from a run folder of examples_scripts/earth.inr.
+
+    python docs/make_earth_figures.py irt-out/earth docs/img
+
+writes earth_contact_sheet.png (the day's RGB frames, labelled with their UTC time) and earth_frame_error.png (one
+frame's 550 nm image and its per-pixel relative standard error).
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+
+def contact_sheet(run: Path, out: Path, cols: int = 5) -> Path:
+    frames = sorted((run / "rgb").glob("*.png"))
+    rows = (len(frames) + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(2.2 * cols, 2.35 * rows), squeeze=False)
+    for ax in axes.ravel():
+        ax.axis("off")
+    for ax, f in zip(axes.ravel(), frames):
+        ax.imshow(plt.imread(f), origin="upper")
+        t = f.stem
+        ax.set_title(f"{t[:4]}-{t[4:6]}-{t[6:8]} {t[9:11]}:{t[11:13]}", fontsize=8)
+    fig.suptitle("examples_scripts/earth.inr: the day's RGB frames (650/550/450 nm, I/F, one stretch)", fontsize=10)
+    fig.tight_layout()
+    p = out / "earth_contact_sheet.png"
+    fig.savefig(p, dpi=110)
+    plt.close(fig)
+    return p
+
+
+def frame_error(run: Path, out: Path) -> Path:
+    f = sorted((run / "frames").glob("*_550nm.npy"))[0]
+    img = np.load(f)[0]
+    se = np.load(f.with_name(f.stem + ".stderr.npy"))[0]
+    rel = np.where(img > 0, se / np.where(img > 0, img, 1), np.nan)
+    lit = img > 0.02 * img.max()
+    fig, ax = plt.subplots(1, 2, figsize=(9, 4.2))
+    a = ax[0].imshow(img * 1e12, origin="lower", cmap="gray")
+    fig.colorbar(a, ax=ax[0], label="pW per pixel")
+    ax[0].set_title(f"{f.stem}: 550 nm band image")
+    b = ax[1].imshow(np.where(lit, rel * 100, np.nan), origin="lower", cmap="viridis", vmin=0,
+                     vmax=np.nanpercentile(rel[lit] * 100, 99))
+    fig.colorbar(b, ax=ax[1], label="relative standard error (%)")
+    ax[1].set_title(f"per-pixel error on the lit disk (median {np.nanmedian(rel[lit]):.1%})")
+    for x in ax:
+        x.set_xlabel("pixel (window column)")
+        x.set_ylabel("pixel (window row)")
+    fig.tight_layout()
+    p = out / "earth_frame_error.png"
+    fig.savefig(p, dpi=100)
+    plt.close(fig)
+    return p
+
+
+if __name__ == "__main__":
+    run, out = Path(sys.argv[1]), Path(sys.argv[2])
+    out.mkdir(parents=True, exist_ok=True)
+    print(contact_sheet(run, out))
+    print(frame_error(run, out))

@@ -1,0 +1,129 @@
+"""Camera-side (adjoint) imaging: the scene a `TRACE CAMERA` traces, built from the script's own scene.
+
+A forward trace sends light from the emitter and lets the detector catch it; for an image of an extended scene
+through a small pupil that wastes almost every ray (each Sun ray lights about one pixel).  A camera trace runs
+the other way, as renderers do (docs/tracer.md, "Camera-side images"):
+
+* rays start on the camera detector's pixels, ``s x s`` stratified points per pixel (one random point in each
+  sub-cell) and per traced line, Lambertian toward the AIM object (the instrument's first element seen from the
+  focal plane), so they go backward through the instrument's own objects and out through its pupil;
+* spectral sampling: with ``SPECTRAL k`` each of the s x s points carries k rays whose lines are drawn from the
+  images' weights (light radiance x filter x QE, each image an equal share), stratified over their cumulative
+  distribution, each weighted by 1 / (k pmf); without it every line the detector sees gets its own rays;
+* every scattering event sends one next-event ray toward the light (the one ``EMITTING SPHERE`` of the trace),
+  whatever the script's ``TOWARD`` targets were, then the path goes on by sampling the scatter model, with
+  Russian roulette (multiple scattering);
+* the light becomes an absorbing sphere whose ``DETECTOR ... START`` bins what reaches it by the camera pixel
+  the path started from: that is the camera's image, with the camera detector's QE and FILTERS.
+
+Normalization (reciprocity): the power on a pixel of area A is P = int_A int L_in cos(t) dw dA.  A camera ray
+starts uniformly in a pixel sub-cell and leaves in the cone of the AIM object's bounding sphere (solid angle
+O, uniform), so one ray estimates A O cos(t) L_in; the kernel's Lambertian emitter gives it the weight
+w0 cos(t) O / pi, and the next-event ray toward a light of radiance L_s carries f cos(s) O_s, so with
+w0 = pi A L_s / s^2 (per ray of the s^2 in a pixel) the light's START image is the pixel power in W.  A
+Lambertian sphere of power P per line (FLUX, as the forward trace emits it) has radiance P / (4 pi^2 R^2).
+
+Only the lines the detector responds to are traced (QE and, with FILTERS, any filter's transmission above 0).
+This module only builds model objects: the packing is in irtlang/compile/pack.py ("CAMERA" sources).
+"""
+from __future__ import annotations
+
+import math
+
+from ..lang.diagnostics import Span, error
+from . import scene as M
+
+
+def camera_scene(scene: M.Scene, params: dict, span: Span) -> tuple[M.Scene, dict]:
+    """The scene of a camera trace and what the engine needs to present its image as the camera's.
+
+    params: camera (object key), aim (object key), sub (s: s x s rays per pixel and line), spectral (k spectral
+    samples per point, 0: every line), window
+    ((i0, i1, j0, j1) pixel columns i0..i1-1 and rows j0..j1-1, or None for the whole detector)."""
+    objs = scene.objects
+    cam = objs.get(params["camera"])
+    aim = objs.get(params["aim"])
+    if cam is None or aim is None:      # the interpreter checked the names; CONSIDER may have dropped them
+        raise error(span, f"TRACE CAMERA: object {params['camera'] if cam is None else params['aim']} is not in "
+                    "the traced scene", "CONSIDER ONLY must keep the camera, its AIM object and the scene")
+    det = cam.detector
+    if det is None or det.start is not None:
+        raise error(span, f"TRACE CAMERA {cam.name}: the camera needs a DETECTOR PIXELS grid (without START)",
+                    "give the focal-plane object DETECTOR PIXELS nx ny")
+    surf = cam.surfaces[0]
+    if surf.kind != "PLANE" or surf.aperture is None:
+        raise error(span, f"TRACE CAMERA {cam.name}: the camera's detector must be a PLANE with an aperture",
+                    "SURFACE; PLANE Z z RECT hx hy; OBJECT fpa; DETECTOR PIXELS nx ny")
+    lights = [s for s in scene.sources if s.kind == "EMITTING SPHERE"]
+    others = [s for s in scene.sources if s.kind != "EMITTING SPHERE"]
+    if len(lights) != 1 or others:
+        raise error(span, f"TRACE CAMERA needs exactly one EMITTING SPHERE as its light (found {len(lights)} "
+                    f"and {len(others)} other source(s))",
+                    "define only the light (EMITTING SPHERE ... and its FLUX) before TRACE CAMERA")
+    light = lights[0]
+    ap = surf.aperture
+    hx, hy = ap.params[:2] if ap.kind in ("RECT", "ELLIPSE") else (ap.params[-1], ap.params[-1])
+    nx, ny = det.nx, det.ny
+    px, py = 2 * hx / nx, 2 * hy / ny
+    i0, i1, j0, j1 = params.get("window") or (0, nx, 0, ny)
+    if not (0 <= i0 < i1 <= nx and 0 <= j0 < j1 <= ny):
+        raise error(span, f"TRACE CAMERA ... WINDOW {i0} {i1} {j0} {j1} is not inside the detector's "
+                    f"{nx} x {ny} pixels", "WINDOW i0 i1 j0 j1: columns i0..i1-1, rows j0..j1-1, from 0")
+    extent = (-hx + i0 * px, -hx + i1 * px, -hy + j0 * py, -hy + j1 * py)
+
+    # the camera's frame (its plane's local x, y: the detector's pixel axes), in the camera's group
+    frame = surf.frame.then(cam.transform.R, cam.transform.T)
+    # which side the instrument lies on: the AIM object's first surface, in the same group's frame
+    a_frame = aim.surfaces[0].frame.then(aim.transform.R, aim.transform.T)
+    if aim.group == cam.group:
+        ca, pc = a_frame.T, frame.T
+    else:
+        ca = scene.world_transform(M.replace(aim, transform=a_frame)).T
+        pc = scene.world_transform(M.replace(cam, transform=frame)).T
+    nz = (frame.R[2], frame.R[5], frame.R[8])
+    side = 1.0 if sum(n * (a - b) for n, a, b in zip(nz, ca, pc)) >= 0 else -1.0
+    # start a hair off the detector plane, on the instrument's side (a ray must not meet its own start plane)
+    eps = 1e-9 * max(hx, hy, 1e-3)
+    frame = frame.shifted(tuple(side * eps * n for n in nz))
+
+    # the lines the camera sees
+    L = scene.n_lines
+    qe = det.qe or (1.0,) * L
+    if det.filters:
+        response = tuple(tuple(float(tr[k]) * qe[k] for _, tr in det.filters) for k in range(L))
+    else:
+        response = tuple((float(qe[k]),) for k in range(L))
+    mask = tuple(max(r) > 0.0 for r in response)
+    spectral = int(params.get("spectral") or 0)
+
+    lname = "CAMERA_LIGHT"
+    while lname in objs:
+        lname += "_"
+    lp = light.params
+    light_obj = M.SceneObject(
+        lname, (M.Surface("SPHERE", M.frozen_params({"radius": lp["radius"]}), M.Transform(T=tuple(lp["centre"])),
+                          None, light.span),),
+        interface=M.Interface("absorb", None, "AIR", "AIR", light.span),
+        detector=M.Detector(i1 - i0, j1 - j0, span, qe=det.qe, filters=det.filters, start=extent),
+        group=light.group, span=light.span)
+    new_objs = {}
+    for k, o in objs.items():
+        sc = tuple(M.replace(s, toward=lname, rays=1) for s in o.scatter)
+        new_objs[k] = M.replace(o, scatter=sc, detector=None)
+    new_objs[lname] = light_obj
+    media = {}
+    for k, m in scene.media.items():
+        vol = m.params.get("volume") if m.params else None
+        if vol is not None:
+            m = M.replace(m, params=M.frozen_params({**m.params, "volume": {**vol, "toward": lname, "rays": 1}}))
+        media[k] = m
+    src = M.Source("CAMERA", M.frozen_params(dict(
+        extent=extent, nx=i1 - i0, ny=j1 - j0, sub=params["sub"], side=side, aim=params["aim"], frame=frame,
+        pixel_area=px * py, light_radius=lp["radius"], light_flux=light.flux, response=response,
+        spectral=spectral)),
+        cam.group, light.flux, span)
+    sc2 = M.replace(scene, objects=M.frozen_params(new_objs), media=M.frozen_params(media), sources=(src,))
+    info = dict(camera=cam.name, light=lname, window=(i0, i1, j0, j1), rays_per_pixel_line=params["sub"] ** 2,
+                lines=sum(mask), spectral=spectral, samples=spectral if spectral > 0 else sum(mask),
+                pixel_size=(px, py))
+    return sc2, info

@@ -1,0 +1,87 @@
+"""Camera-side images (TRACE CAMERA; irtlang/model/camera.py, docs/tracer.md "Camera-side images").
+
+The scene is examples_scripts/camera_cassegrain.inr: a sphere (R = 100 m) 100 km above a 0.5 m f/10 Cassegrain,
+lit at 60 deg phase by a sun 1e9 m away, imaged on 24 x 24 pixels; `scene` switches its optics (a Lambert
+sphere, a glint ocean under a Rayleigh slab, a refracting shell, a fraction map) and `mode` the estimator.
+
+Oracles:
+* the closed form of a Lambert sphere lit by a distant sphere of known power: the disk-integrated flux density
+  at distance D is (2/3) A E (R/D)^2 Phi(a), Phi(a) = (sin a + (pi - a) cos a) / pi (ORACLES.md), with
+  E = P / (4 pi d^2); times the primary's clear annulus pi (0.25^2 - 0.06^2) m^2 (every ray it reflects meets
+  the secondary and passes the hole: checked by the geometry in the script's comments);
+* the forward trace of the same scene (light from the sun, every scattering sending a ray toward the primary),
+  an independent estimator of the same expectation: the two images agree pixel by pixel (chi-square over the
+  pixels, both runs' standard errors) and in total;
+* the scatter between two camera runs with different seeds: the per-pixel standard errors the camera trace
+  writes must explain it (chi-square per degree of freedom 1 within its 5-sigma band).
+Tolerances are 5 sigma of the quantities compared, from the runs' own standard errors.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from irtlang.cli import main
+
+SCRIPT = Path(__file__).resolve().parents[2] / "examples_scripts" / "camera_cassegrain.inr"
+
+
+def _run(tmp_path, name, **sets):
+    out = tmp_path / name
+    args = ["run", str(SCRIPT), "--out", str(out)]
+    for k, v in sets.items():
+        args += ["--set", f"{k}={v!r}" if isinstance(v, str) else f"{k}={v}"]
+    assert main(args) == 0
+    return np.load(out / "image.npy"), np.load(out / "image.stderr.npy")
+
+
+def _chi2_band(dof):
+    return 5.0 * math.sqrt(2.0 / dof)
+
+
+def test_lambert_sphere_closed_form(tmp_path):
+    img, se = _run(tmp_path, "cam", mode="camera", scene="lambert")
+    A, R, D, d_sun, P = 0.6, 100.0, 1e5, 1e9, 1e18
+    a = math.radians(60.0)
+    phi = (math.sin(a) + (math.pi - a) * math.cos(a)) / math.pi
+    E = P / (4 * math.pi * d_sun ** 2)
+    area = math.pi * (0.25 ** 2 - 0.06 ** 2)
+    expected = (2.0 / 3.0) * A * E * (R / D) ** 2 * phi * area
+    total = img.sum()
+    sig = math.sqrt((se ** 2).sum())
+    # + the finite-distance term of the Lambert-sphere law at D = 1000 R (3e-4, test_adjoint_image.py)
+    assert abs(total / expected - 1) < 5 * sig / expected + 3e-4, (total, expected, sig)
+    # every lit pixel has a value (no empty pixel on the lit disk)
+    lit = img.sum(0) > 0.05 * img.sum(0).max()
+    assert lit.sum() > 150
+
+
+@pytest.mark.parametrize("scene,spectral", [("lambert", 0), ("slab", 0), ("shell", 0), ("map", 0), ("slab", 2)])
+def test_camera_agrees_with_forward(tmp_path, scene, spectral):
+    """spectral = 2: each camera ray position sends 2 rays whose lines are drawn from the lines' weights."""
+    cam, cse = _run(tmp_path, "cam", mode="camera", scene=scene, spectral=spectral)
+    fwd, fse = _run(tmp_path, "fwd", mode="forward", scene=scene)
+    assert cam.shape == fwd.shape == (2, 24, 24)
+    # pixels the forward trace measured (its per-pixel standard error is itself an estimate: need some hits)
+    m = (fse > 0) & (fse < 0.3 * np.abs(fwd)) & (cse > 0)
+    dof = int(m.sum())
+    assert dof > 100, dof
+    chi2 = float((((cam - fwd) ** 2) / (cse ** 2 + fse ** 2))[m].mean())
+    assert abs(chi2 - 1.0) < _chi2_band(dof), (scene, chi2, dof)
+    for k in range(2):
+        s = math.sqrt((cse[k] ** 2).sum() + (fse[k] ** 2).sum())
+        assert abs(cam[k].sum() - fwd[k].sum()) < 5 * s, (scene, k, cam[k].sum(), fwd[k].sum(), s)
+
+
+def test_camera_standard_errors_are_honest(tmp_path):
+    a, ae = _run(tmp_path, "s1", mode="camera", scene="slab", seed=1, camera_rays=4)
+    b, be = _run(tmp_path, "s2", mode="camera", scene="slab", seed=2, camera_rays=4)
+    m = (ae > 0) & (be > 0) & (a > 0.05 * a.max())
+    dof = int(m.sum())
+    assert dof > 100
+    chi2 = float((((a - b) ** 2) / (ae ** 2 + be ** 2))[m].mean())
+    assert abs(chi2 - 1.0) < _chi2_band(dof), (chi2, dof)
+    assert not np.array_equal(a, b)
