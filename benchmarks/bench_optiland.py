@@ -57,7 +57,7 @@ def design() -> dict:
 
 # ----------------------------------------------------------------------------------------------- irtlang
 def irt_spot_scene(n: int, seed: int = 7):
-    from irtlang.lang.diagnostics import Source
+    from irtlang.core.diagnostics import Source
     from irtlang.lang.interp import Interpreter
 
     it = Interpreter(check_only=True)

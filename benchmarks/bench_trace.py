@@ -32,7 +32,7 @@ TRACE
 
 
 def scene_for(n: int):
-    from irtlang.lang.diagnostics import Source
+    from irtlang.core.diagnostics import Source
     from irtlang.lang.interp import Interpreter
 
     it = Interpreter(check_only=True)

@@ -63,10 +63,9 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
 
     a = sub.add_parser("analyze", help="analyses of saved images, spectra and ray files")
     if _wants_analysis(argv):
-        try:
-            from analysis import cli as acli  # the analysis package is optional at parse time
-        except ImportError:  # pragma: no cover - analysis ships with irtlang
-            acli = None
+        from .core.hooks import analysis_provider
+
+        acli = analysis_provider(required=False)  # the analysis package (irtlang/core/hooks.py)
         if acli is not None and hasattr(acli, "build_parser"):
             acli.build_parser(a.add_subparsers(dest="analysis_cmd", metavar="ANALYSIS"))
     return p
@@ -88,9 +87,9 @@ def main(argv: list[str] | None = None) -> int:
 
             return repl_main()
         if args.cmd == "analyze":
-            from analysis import cli as acli
+            from .core.hooks import analysis_provider
 
-            return acli.run(args)
+            return analysis_provider().run(args)
         build_parser().print_help()
         return EXIT_INPUT
     except KeyboardInterrupt:
@@ -115,7 +114,7 @@ def _print_diags(e) -> None:
 
 def _load_check(path: str, presets=()):
     """Check a script; returns the interpreter, or raises IrtError with every diagnostic."""
-    from .lang.diagnostics import Diagnostic, IrtError, Source, Span
+    from .core.diagnostics import Diagnostic, IrtError, Source, Span
     from .lang.interp import check_file
 
     p = Path(path)
@@ -128,7 +127,7 @@ def _load_check(path: str, presets=()):
 
 
 def cmd_check(args) -> int:
-    from .lang.diagnostics import IrtError
+    from .core.diagnostics import IrtError
 
     status = EXIT_OK
     for f in args.files:
@@ -146,7 +145,7 @@ def cmd_run(args) -> int:
     if not scheduler and workers is None:
         return _run_script(args)
     from .cluster import DEFAULT_TIMEOUT, ClusterError, DaskRunner, connect
-    from .lang.diagnostics import IrtError
+    from .core.diagnostics import IrtError
 
     if workers is not None and workers < 1:
         print("irt: --workers needs at least 1 worker", file=sys.stderr)
@@ -172,7 +171,7 @@ def cmd_run(args) -> int:
 def _run_script(args, runner=None) -> int:
     from .engine import Engine, MissingCapability, RuntimeFailure
     from .io.manifest import RunFolder
-    from .lang.diagnostics import Diagnostic, IrtError
+    from .core.diagnostics import Diagnostic, IrtError
     from .lang.interp import Interpreter
 
     try:
@@ -221,7 +220,7 @@ def _run_script(args, runner=None) -> int:
 
 
 def cmd_fmt(args) -> int:
-    from .lang.diagnostics import IrtError
+    from .core.diagnostics import IrtError
     from .lang.fmt import format_file
 
     try:

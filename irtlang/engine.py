@@ -24,22 +24,10 @@ from types import SimpleNamespace
 import numpy as np
 
 from .io.manifest import RunFolder
-from .lang.diagnostics import Span
-from .lang.units import Quantity, UNITS, LENGTH
+from .core.diagnostics import MissingCapability, RuntimeFailure, Span  # noqa: F401  (re-exported)
+from .core.units import Quantity, UNITS, LENGTH
 from .model import scene as M
 from .tracer import standard_error
-
-
-class MissingCapability(Exception):
-    def __init__(self, span: Span, what: str, capability: str):
-        self.span, self.what, self.capability = span, what, capability
-        super().__init__(f"{what} needs {capability}, which this version of irtlang does not have yet")
-
-
-class RuntimeFailure(Exception):
-    def __init__(self, span: Span, message: str):
-        self.span, self.message = span, message
-        super().__init__(message)
 
 
 RECORD_STEPS = {"SPOTS", "FOCUS", "SAVE_RAYS", "EXPORT", "PSF"}
@@ -443,7 +431,7 @@ class Engine:
         run_psf(self, step, interp)
 
     def do_save_rays(self, step, interp):
-        from analysis.rayfile import write_rays_v1
+        from .io.rayfile import write_rays_v1
 
         at = step.params["at"]
         m = self._selected(step, "SAVE RAYS", obj_filter=at)
@@ -468,8 +456,8 @@ class Engine:
         self.out(f"SAVE RAYS: {int(m.sum()):,} rays -> {step.params['file']}")
 
     def do_load_rays(self, step, interp):
-        from analysis import AnalysisError
-        from analysis.rayfile import read_rays
+        from .core.checks import AnalysisError
+        from .io.rayfile import read_rays
 
         try:
             rf = read_rays(step.params["file"])
@@ -484,7 +472,7 @@ class Engine:
         import contextlib
         import io as _io
 
-        from analysis import cli as acli
+        from .core.hooks import analysis_provider
         from .lang.commands import analysis_parser
 
         argv, written = [], []
@@ -507,7 +495,7 @@ class Engine:
         args = analysis_parser().parse_args(argv)
         buf, err = _io.StringIO(), _io.StringIO()
         with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(err):
-            code = acli.run(args)
+            code = analysis_provider().run(args)
         if code != 0:
             raise RuntimeFailure(step.span, f"ANALYZE {argv[0].upper()}: {err.getvalue().strip().removeprefix('error: ')}")
         self.out(f"ANALYZE {argv[0].upper()}:\n" + buf.getvalue().rstrip())

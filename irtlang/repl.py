@@ -22,10 +22,10 @@ from pathlib import Path
 
 from ._version import __version__
 from .lang import ast as A
-from .lang.diagnostics import Diagnostic, DiagnosticBag, IrtError, NO_SPAN, Source, did_you_mean
+from .core.diagnostics import Diagnostic, DiagnosticBag, IrtError, NO_SPAN, Source, did_you_mean
 from .lang.parser import parse_source
 from .lang.spec import Form, Variants, match_keyword
-from .lang.units import LENGTH, Quantity, fmt_number
+from .core.units import LENGTH, Quantity, fmt_number
 
 PROMPT = "irt> "
 CONT_PROMPT = "...> "
@@ -611,7 +611,7 @@ def _form_param_kinds(form: Form | None) -> set[str]:
 
 
 def _unit_metres(units: str) -> float:
-    from .lang.units import UNITS
+    from .core.units import UNITS
 
     return UNITS[units.lower()][0]
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..io.spectra import band_edges
-from ..lang.diagnostics import Span, error
+from ..core.diagnostics import Span, error
 from ..model import scene as M
 
 SK_PLANE, SK_CONIC, SK_SPHERE, SK_ELLIPSOID, SK_TUBE, SK_MESH = range(6)

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..lang.diagnostics import Span, error
+from ..core.diagnostics import Span, error
 
 
 def load_latlon(path: Path) -> np.ndarray:

@@ -11,7 +11,7 @@ from importlib import resources
 
 import numpy as np
 
-from ..lang.diagnostics import error
+from ..core.diagnostics import error
 from ..model.scene import Spectrum, frozen_params
 
 DEFAULT_TSI = 1360.8          # W/m2, Kopp & Lean (2011)

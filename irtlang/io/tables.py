@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..lang.diagnostics import Span, error
+from ..core.diagnostics import Span, error
 
 
 @dataclass(frozen=True)

@@ -10,12 +10,13 @@ from dataclasses import dataclass
 from typing import Callable
 
 from . import ast as A
-from .diagnostics import Span, did_you_mean, error
+from ..core.diagnostics import Span, did_you_mean, error
 from .expr import evaluate, format_value
 from .spec import (MAX_REPEAT, Axis, Choice, Clause, Form, Name, Param, Path, PL, Ref, Rest, V, Variants, Vs,
                    match_keyword, nonneg, positive, unit_interval)
-from .units import ANGLE, INV_LENGTH, LENGTH, LENGTH_UNITS, NONE, POWER, TIME, Quantity
+from ..core.units import ANGLE, INV_LENGTH, LENGTH, LENGTH_UNITS, NONE, POWER, TIME, Quantity
 from ..model import scene as M
+from .state import State, StopScript, _SurfaceBlock
 from ..plugins.bsdfs import REGISTRY as BSDFS
 from ..plugins.sources import REGISTRY as SOURCES, of_role
 from ..plugins.surfaces import REGISTRY as SURFACES
@@ -90,15 +91,13 @@ def _macro(it, b, st):  # MACRO blocks are built by the parser; reaching here me
 
 @command("STOP", Form(), "control", "end the script here")
 def _stop(it, b, st):
-    from .interp import StopScript
     raise StopScript()
 
 
 @command("ERROR", Form((Rest("items"),)), "control",
          "report an error here with the message ({expr} interpolated) and end the script")
 def _error_cmd(it, b, st):
-    from .diagnostics import Diagnostic
-    from .interp import StopScript
+    from ..core.diagnostics import Diagnostic
 
     it.diags.add(Diagnostic(b.span, _message(it, b["items"]) or "ERROR"))
     raise StopScript()
@@ -107,7 +106,6 @@ def _error_cmd(it, b, st):
 # ==================================================================== 3. system
 @command("SYSTEM", Form((Choice("what", ("NEW",)),)), "system", "SYSTEM NEW forgets every definition")
 def _system(it, b, st):
-    from .interp import State
     it.state = State()
 
 
@@ -371,8 +369,6 @@ def _map(it, b, st):
 # ==================================================================== 5. geometry
 @command("SURFACE", Form(), "geometry", "start a geometry block (closed by OBJECT name)")
 def _surface(it, b, st):
-    from .interp import _SurfaceBlock
-
     if it.state.block is not None:
         prev = it.state.block.span
         it.state.block = _SurfaceBlock(b.span)
@@ -980,14 +976,14 @@ def analysis_argv(it, what: str, items) -> list:
 def analysis_parser():
     import argparse
 
-    from analysis import cli as acli
+    from ..core.hooks import analysis_provider   # the analysis package, reached through the late-stage hook
 
     class _Parser(argparse.ArgumentParser):
         def error(self, message):  # report, don't exit
             raise ValueError(message)
 
     p = _Parser(prog="ANALYZE", add_help=False)
-    acli.build_parser(p.add_subparsers(dest="analysis_cmd", parser_class=_Parser))
+    analysis_provider().build_parser(p.add_subparsers(dest="analysis_cmd", parser_class=_Parser))
     return p
 
 

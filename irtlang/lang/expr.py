@@ -15,8 +15,8 @@ import math
 from typing import Callable
 
 from . import ast as A
-from .diagnostics import Span, did_you_mean, error
-from .units import ANGLE, LENGTH, NONE, UNITS, Quantity, dim_name, quantity
+from ..core.diagnostics import Span, did_you_mean, error
+from ..core.units import ANGLE, LENGTH, NONE, UNITS, Quantity, dim_name, quantity
 
 Value = Quantity | str
 
@@ -254,7 +254,7 @@ def _call(e: A.Call, env: Env) -> Value:
 
 
 def format_value(v: Value, env: Env, spec: str | None = None) -> str:
-    from .units import fmt_number, DISPLAY
+    from ..core.units import fmt_number, DISPLAY
 
     if isinstance(v, str):
         return v

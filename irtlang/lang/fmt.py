@@ -28,7 +28,7 @@ import re
 from pathlib import Path
 
 from . import ast as A
-from .diagnostics import IrtError, Source, Span
+from ..core.diagnostics import IrtError, Source, Span
 from .parser import _ToAst, _transform, lark_parser, parse_source, read_source
 from .spec import Form, Variants, match_keyword
 

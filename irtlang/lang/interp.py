@@ -12,66 +12,22 @@ from __future__ import annotations
 import hashlib
 import math
 import sys
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Callable
 
 from . import ast as A
-from .diagnostics import Diagnostic, DiagnosticBag, IrtError, Source, Span, did_you_mean, error
+from ..core.diagnostics import Diagnostic, DiagnosticBag, IrtError, Source, Span, did_you_mean, error
 from .expr import CONSTANTS, Env, evaluate, format_value
 from .parser import parse_source, read_source
 from .spec import BindContext, bind, match_keyword
-from .units import LENGTH, NONE, UNITS, Quantity, dim_name
+from ..core.units import LENGTH, NONE, UNITS, Quantity, dim_name
 from ..model import scene as M
+from . import commands
+from .state import State, StopScript, _SurfaceBlock  # noqa: F401  (re-exported: irtlang.lang.interp.State)
 
 MAX_LOOP_ITERATIONS = 10_000_000
 MAX_CALL_DEPTH = 64
-
-
-class StopScript(Exception):
-    """STOP: ends the script here."""
-
-
-@dataclass
-class _SurfaceBlock:
-    span: Span
-    surfaces: list = field(default_factory=list)
-    failed: bool = False                       # a surface in it failed: its OBJECT fails quietly
-
-
-@dataclass
-class State:
-    """Everything a script has defined so far (mutable while interpreting; steps get frozen snapshots)."""
-
-    units: str = "MM"
-    wavelengths_nm: tuple = (550.0,)
-    wavelengths_span: Span | None = None
-    seed: int = 0
-    media: dict = field(default_factory=lambda: {"AIR": M.AIR, "VACUUM": M.VACUUM})
-    coatings: dict = field(default_factory=dict)
-    spectra: dict = field(default_factory=dict)
-    models: dict = field(default_factory=dict)
-    maps: dict = field(default_factory=dict)
-    objects: dict = field(default_factory=dict)
-    groups: dict = field(default_factory=dict)
-    sources: list = field(default_factory=list)
-    pending_grid: tuple | None = None          # (module, params, span, group)
-    block: _SurfaceBlock | None = None
-    current: str | None = None                 # key of the current object
-    group_stack: list = field(default_factory=list)
-    level: int = 1000
-    halt: float = 1e-6
-    importance_cut: float = 0.0
-    traces: int = 0                            # TRACE commands so far (a group may move between them)
-    placed_trace: dict = field(default_factory=dict)   # group key -> the value of traces when it was placed
-    first_per_line: Span | None = None         # first wavelength-dependent definition
-    failed: set = field(default_factory=set)   # (namespace, key) of definitions that failed
-
-    def scene(self) -> M.Scene:
-        fp = M.frozen_params
-        return M.Scene(self.units, self.wavelengths_nm, self.seed, fp(self.media), fp(self.coatings),
-                       fp(self.spectra), fp(self.models), fp(self.maps), fp(self.objects), fp(self.groups),
-                       tuple(self.sources), self.importance_cut)
 
 
 NAMESPACES = ("medium", "coating", "spectrum", "model", "map", "object", "group")
@@ -100,8 +56,6 @@ class Interpreter(BindContext):
         self.env = Env(self.lookup, lambda: self.state.units, self.variable_names)
         self.env.failed_var = self._failed_var
         self._cmd_span: Span | None = None
-        from . import commands
-
         self.commands = commands.TABLE
 
     # ------------------------------------------------------------ entry points

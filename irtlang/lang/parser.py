@@ -13,8 +13,8 @@ from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, VisitError
 
 from . import ast as A
-from .diagnostics import IrtError, Source, Span, did_you_mean, error
-from .units import UNITS, parse_qty_token
+from ..core.diagnostics import IrtError, Source, Span, did_you_mean, error
+from ..core.units import UNITS, parse_qty_token
 
 
 def grammar_text() -> str:

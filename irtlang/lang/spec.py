@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 from typing import Any, Callable, Iterable, Sequence
 
 from . import ast as A
-from .diagnostics import Span, did_you_mean, error
-from .units import Dim, NONE, Quantity, dim_name
+from ..core.diagnostics import Span, did_you_mean, error
+from ..core.units import Dim, NONE, Quantity, dim_name
 
 # ---------------------------------------------------------------- declarations
 
@@ -326,7 +326,7 @@ def _after_bare_number(cur: _Cursor) -> bool:
 
 
 def _unknown_unit(it, also: str | None):
-    from .units import UNITS
+    from ..core.units import UNITS
     hint = did_you_mean(it.name, UNITS)
     if hint is None:
         hint = "known units: " + " ".join(u for u in UNITS if u != "%") + (f"; {also}" if also else "")
@@ -479,7 +479,7 @@ def _take_list(p: Param, cur: _Cursor, ctx, stop_kws: list, where: str):
             break
         if isinstance(it, A.Word) and not ctx.is_variable(it.name):
             # neither a keyword allowed here nor a variable: say so, with both kinds of hint
-            from .units import UNITS
+            from ..core.units import UNITS
             if it.name.lower() in UNITS:
                 raise error(it.span, f"a unit ('{it.name}') must follow a number directly",
                             "write the number and its unit together, e.g. 5 mm")

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Any, Mapping
 
-from ..lang.diagnostics import NO_SPAN, Span
+from ..core.diagnostics import NO_SPAN, Span
 
 
 def frozen_params(d: Mapping[str, Any] | None = None) -> Mapping[str, Any]:

@@ -299,7 +299,7 @@ def fine_figures(psfs, weights, *, step=None, half_width=None, ring_floor=0.1) -
     """Figures of the (polychromatic) PSF on a fine grid about p_ref, in metres.
 
     ``fwhm``: for a PSF whose azimuthally averaged profile peaks at p_ref (``centred``), the full width at half
-    maximum of :func:`analysis.psf.psf_metrics` (the profile's first half-maximum crossing); otherwise (a
+    maximum of :func:`irtlang.optics.psf_measures.psf_metrics` (the profile's first half-maximum crossing); otherwise (a
     defocused, ring-shaped PSF) twice the outermost radius where the profile crosses half its maximum.
     ``ring_diameter``: the first dark ring (centred PSFs only).  ``outer_ring_diameter``: twice the radius of the
     outermost local maximum of the profile that reaches ``ring_floor`` (0.1) times the profile's maximum; None
@@ -311,7 +311,7 @@ def fine_figures(psfs, weights, *, step=None, half_width=None, ring_floor=0.1) -
     holds 95 % of the energy on a coarse survey (+-60 lambda N, steps lambda N / 4), plus 2 lambda N.  The grid is
     centred on p_ref, which is also the centre of the radial profiles and encircled energies.
     """
-    from analysis.psf import psf_metrics, radial_profile
+    from .psf_measures import psf_metrics, radial_profile
 
     w = _weights(psfs, weights)
     lam_n = max(p.wavelength * p.efl / (max(p.nx * p.dx, p.ny * p.dy)) for p in psfs)   # ~ lambda N, longest

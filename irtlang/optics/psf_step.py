@@ -60,8 +60,8 @@ def _start_path(pk, s, start):
 
 
 def run_psf(eng, step, interp):
-    from ..engine import RuntimeFailure
-    from ..lang.units import LENGTH, NONE, Quantity
+    from ..core.diagnostics import RuntimeFailure
+    from ..core.units import LENGTH, NONE, Quantity
 
     eng._need_rays(step, "PSF")
     res, sc = eng.result, eng.scene
@@ -166,7 +166,7 @@ def run_psf(eng, step, interp):
 
 def diffraction_image(eng, step, name, img, img2, pitch):
     """The detector image (L, ny, nx) convolved per line with the last PSF's aberration-free kernel."""
-    from ..engine import RuntimeFailure
+    from ..core.diagnostics import RuntimeFailure
 
     ps = getattr(eng, "psf", None)
     if ps is None:

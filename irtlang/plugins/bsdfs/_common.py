@@ -205,6 +205,11 @@ def slab_albedo_lines(phase_avg, taus, w, mu_nodes: np.ndarray):
         Tu = np.zeros((len(u), len(mu_nodes)))
         edges = np.linspace(lu[0], lu[-1], npan + 1)
         k = np.arange(CHEB_TAU_NODES)
+        # the barycentric weights of Chebyshev points of the first kind, in closed form (Berrut & Trefethen,
+        # SIAM Review 2004, section 5).  Given explicitly: without them SciPy computes the weights from a random permutation of the
+        # nodes (its global RandomState), which made the tables, and every Earth frame, differ in the last bits
+        # from one run to the next (tests/physics/test_earth_reproducible.py)
+        wts = (-1.0) ** k * np.sin((2 * k + 1) * np.pi / (2 * CHEB_TAU_NODES))
         tiny = 1e-300
         for q in range(npan):
             a, b = edges[q], edges[q + 1]
@@ -213,8 +218,8 @@ def slab_albedo_lines(phase_avg, taus, w, mu_nodes: np.ndarray):
                 continue
             x = 0.5 * (a + b) + 0.5 * (b - a) * np.cos(np.pi * (2 * k + 1) / (2 * CHEB_TAU_NODES))
             Rn, Tn = slab_albedo(phase_avg, np.exp(x), w, mu_nodes)
-            Ru[sel] = np.exp(BarycentricInterpolator(x, np.log(np.maximum(Rn, tiny)))(lu[sel]))
-            Tu[sel] = np.exp(BarycentricInterpolator(x, np.log(np.maximum(Tn, tiny)))(lu[sel]))
+            Ru[sel] = np.exp(BarycentricInterpolator(x, np.log(np.maximum(Rn, tiny)), wi=wts)(lu[sel]))
+            Tu[sel] = np.exp(BarycentricInterpolator(x, np.log(np.maximum(Tn, tiny)), wi=wts)(lu[sel]))
     R[pos] = Ru[np.ravel(inv)]
     T[pos] = Tu[np.ravel(inv)]
     return R, T

@@ -31,7 +31,7 @@ import math
 import numba
 import numpy as np
 
-from ...lang.diagnostics import error
+from ...core.diagnostics import error
 from ...lang.spec import Clause, Form, PL, nonneg, positive
 from ...kernels.sampling import onb
 from ._common import table_interp, table_mu_nodes

@@ -46,7 +46,7 @@ import numba
 import numpy as np
 
 from ...lang.spec import Clause, Form, PL, V, nonneg, unit_interval
-from ...lang.units import SPEED
+from ...core.units import SPEED
 from ...kernels.optics import fresnel_unpolarized
 from ...kernels.sampling import cosine_hemisphere, onb
 from ._common import INV_PI, MU_MIN, table_interp, table_mu_nodes

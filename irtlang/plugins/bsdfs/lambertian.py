@@ -17,7 +17,7 @@ import math
 import numba
 import numpy as np
 
-from ...lang.diagnostics import error
+from ...core.diagnostics import error
 from ...lang.spec import Clause, Form, PL, unit_interval
 from ...kernels.sampling import cosine_hemisphere, onb
 

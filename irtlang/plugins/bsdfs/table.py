@@ -37,7 +37,7 @@ import numba
 import numpy as np
 
 from ...io.tables import read_rows
-from ...lang.diagnostics import error
+from ...core.diagnostics import error
 from ...lang.spec import Form, Path
 from ...kernels.sampling import cosine_hemisphere, onb
 from ._common import INV_PI

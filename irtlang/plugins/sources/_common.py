@@ -1,5 +1,5 @@
 from ...lang.spec import Clause, Name, V, positive
-from ...lang.units import ANGLE
+from ...core.units import ANGLE
 
 RAYS = Clause("RAYS", (V("rays", integer=True, check=positive),), required=True, doc="number of rays")
 RANDOM = Clause("RANDOM", (), doc="random positions instead of a regular lattice")

@@ -8,7 +8,7 @@ Gives the rays of the preceding GRID one direction (collimated).  The vector nee
 """
 import math
 
-from ...lang.diagnostics import error
+from ...core.diagnostics import error
 from ...lang.spec import Form, Vs
 
 KIND = "SOURCE DIRECTION"

@@ -12,7 +12,7 @@ only within that half-angle of the normal (which carries a share sin^2 of the La
 | TOWARD | object | importance target |
 """
 from ...lang.spec import Axis, Form, V, positive
-from ...lang.units import LENGTH
+from ...core.units import LENGTH
 from ._common import CONE, RAYS, TOWARD
 
 KIND = "EMITTING DISK"

@@ -13,9 +13,9 @@ toward the target, weighted by the solid angle it subtends.
 """
 import math
 
-from ...lang.diagnostics import error
+from ...core.diagnostics import error
 from ...lang.spec import Clause, Form, V, Vs
-from ...lang.units import ANGLE, LENGTH
+from ...core.units import ANGLE, LENGTH
 from ._common import RAYS, TOWARD
 
 KIND = "EMITTING POINT"

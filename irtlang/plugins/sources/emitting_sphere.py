@@ -11,7 +11,7 @@ object and weighted exactly by the solid angle it subtends, so no ray is wasted.
 | TOWARD | object | importance target |
 """
 from ...lang.spec import Form, V, positive
-from ...lang.units import LENGTH
+from ...core.units import LENGTH
 from ._common import RAYS, TOWARD
 
 KIND = "EMITTING SPHERE"

@@ -9,7 +9,7 @@ the direction is normalize(tan(angle_x), tan(angle_y), s) in the grid's local fr
 | angle_x angle_y | angle (bare: deg) | field angles along local x and y; a unit after the pair applies to both |
 """
 from ...lang.spec import Form, Vs
-from ...lang.units import ANGLE
+from ...core.units import ANGLE
 
 KIND = "SOURCE FIELD"
 ROLE = "direction"

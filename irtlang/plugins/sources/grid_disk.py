@@ -10,7 +10,7 @@ square lattice of about n points clipped to the disk, or n random points (unifor
 | RAYS | count | number of rays (approximate for the lattice) |
 """
 from ...lang.spec import Axis, Form, V, positive
-from ...lang.units import LENGTH
+from ...core.units import LENGTH
 from ._common import RANDOM, RAYS
 
 KIND = "GRID DISK"

@@ -9,9 +9,9 @@ nx*ny random points with RANDOM.  Local x, y follow the cyclic order of PLANE.  
 | x_min x_max y_min y_max | length | extent in local x and y |
 | nx ny | count | points along x and y |
 """
-from ...lang.diagnostics import error
+from ...core.diagnostics import error
 from ...lang.spec import Axis, Form, V, positive
-from ...lang.units import LENGTH
+from ...core.units import LENGTH
 from ._common import RANDOM
 
 KIND = "GRID RECT"

@@ -9,7 +9,7 @@ the rays diverge from the point.  With CONVERGE they run from their start point 
 | CONVERGE | flag | rays converge to the point instead of diverging from it |
 """
 from ...lang.spec import Clause, Form, Vs
-from ...lang.units import LENGTH
+from ...core.units import LENGTH
 
 KIND = "SOURCE POSITION"
 ROLE = "direction"

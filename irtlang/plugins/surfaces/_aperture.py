@@ -1,7 +1,7 @@
 """Apertures shared by PLANE and CONIC: RECT hx hy, DISK r, ANNULUS r_in r_out, ELLIPSE a b (local x, y)."""
-from ...lang.diagnostics import error
+from ...core.diagnostics import error
 from ...lang.spec import Clause, V, positive, nonneg
-from ...lang.units import LENGTH
+from ...core.units import LENGTH
 from ...model.scene import Aperture
 
 CLAUSES = (

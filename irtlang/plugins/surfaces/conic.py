@@ -14,9 +14,9 @@ vertex.  k = 0 sphere, -1 paraboloid, < -1 hyperboloid, between -1 and 0 prolate
 """
 import math
 
-from ...lang.diagnostics import error
+from ...core.diagnostics import error
 from ...lang.spec import Axis, Clause, Form, V, Vs
-from ...lang.units import LENGTH, NONE
+from ...core.units import LENGTH, NONE
 from ...model.scene import Surface
 from ._aperture import CLAUSES, aperture_from, outer_radius
 from .plane import axis_frame

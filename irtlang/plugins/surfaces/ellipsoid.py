@@ -9,7 +9,7 @@ normal pointing outward.
 | AT x y z | length | centre (default the origin) |
 """
 from ...lang.spec import Clause, Form, V, Vs, positive
-from ...lang.units import LENGTH
+from ...core.units import LENGTH
 from ...model.scene import Surface, Transform
 
 KIND = "ELLIPSOID"

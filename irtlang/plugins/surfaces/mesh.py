@@ -8,9 +8,9 @@ Vertex coordinates are in the script's length unit, times SCALE.  A closed mesh'
 | file | path | mesh file |
 | SCALE | 1 | scale factor on the vertex coordinates (default 1) |
 """
-from ...lang.diagnostics import error
+from ...core.diagnostics import error
 from ...lang.spec import Clause, Form, Path, V, positive
-from ...lang.units import NONE
+from ...core.units import NONE
 from ...model.scene import Surface, IDENTITY
 
 KIND = "MESH"

@@ -10,7 +10,7 @@ The plane (axis) = position, normal along +axis.  Without an aperture the plane 
 | DISK r / ANNULUS r_in r_out / ELLIPSE a b | length | other apertures, in the same local x, y |
 """
 from ...lang.spec import Axis, Form, V
-from ...lang.units import LENGTH
+from ...core.units import LENGTH
 from ...model.scene import AXIS_FRAME, Surface, Transform
 from ._aperture import CLAUSES, aperture_from
 

@@ -8,7 +8,7 @@ A full sphere, normal pointing outward.
 | radius | length | radius (> 0) |
 """
 from ...lang.spec import Form, V, positive
-from ...lang.units import LENGTH
+from ...core.units import LENGTH
 from ...model.scene import Surface, Transform
 
 KIND = "SPHERE"

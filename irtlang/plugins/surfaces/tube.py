@@ -9,9 +9,9 @@ points outward (away from the axis).
 | z1 r1 | length | first end: position on the axis and radius |
 | z2 r2 | length | second end |
 """
-from ...lang.diagnostics import error
+from ...core.diagnostics import error
 from ...lang.spec import Axis, Form, V, nonneg
-from ...lang.units import LENGTH
+from ...core.units import LENGTH
 from ...model.scene import Surface
 from .plane import axis_frame
 
