@@ -189,7 +189,7 @@ class Engine:
         """CAMERA_SUN[_filter]: the light's irradiance at 1 AU summed over each image's band (W/m2), weighted as
         the image is (filter transmission times QE): the white reference of an I/F (docs/tracer.md)."""
         from .compile.pack import SUN_AREA_1AU, _line_power
-        from .lang.units import NONE, Quantity
+        from .core.units import NONE, Quantity
 
         src = csc.sources[0]
         pk = res.packed

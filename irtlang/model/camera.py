@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 
-from ..lang.diagnostics import Span, error
+from ..core.diagnostics import Span, error
 from . import scene as M
 
 
