@@ -66,6 +66,40 @@ def needs_from_steps(steps) -> tuple[bool, bool]:
     return rec, hist
 
 
+def trace_memory_bytes(scene, records: bool, history: bool, level: int) -> float:
+    """An estimate of the memory one TRACE of `scene` needs: its detector images (sum and sum of squares, and
+    the copies the result keeps) and, when later commands need them, the per-ray records (irtlang.tracer: two
+    record slots per source ray, 124 bytes each plus 4 per history entry, gathered into one array at the end)."""
+    from .lang.interp import source_rays
+    from .tracer import HISTORY_CAP
+
+    L = len(scene.wavelengths_nm)
+    img = 0.0
+    for obj in scene.objects.values():
+        d = obj.detector
+        if d is not None:
+            img += (len(d.filters) if d.filters else L) * float(d.nx) * float(d.ny) * 8 * 4
+    rays = float(sum(source_rays(s) for s in scene.sources)) * L
+    rec = rays * (124 + 4 * (min(level, HISTORY_CAP) if history else 0)) * 2 * 2 if records else 0.0
+    return img + rec
+
+
+def check_trace_memory(steps, limits) -> list:
+    """Diagnostics for the TRACEs of a checked script whose estimated memory is over the limit `memory`."""
+    from .lang.diagnostics import Diagnostic
+
+    records, history = needs_from_steps(steps)
+    out = []
+    for s in steps:
+        if s.kind == "TRACE" and s.scene is not None:
+            need = trace_memory_bytes(s.scene, records, history, int(s.params.get("level", 1000)))
+            over = limits.exceeded("memory", need)
+            if over:
+                what = " (with per-ray records, which a later SPOTS, FOCUS, SAVE RAYS ... needs)" if records else ""
+                out.append(Diagnostic(s.span, f"this TRACE would need about {over}{what}", limits.hint("memory")))
+    return out
+
+
 class Engine:
     def __init__(self, folder: RunFolder, *, records: bool = True, history: bool = True, progress=None,
                  out=None, runner=None):
@@ -84,10 +118,24 @@ class Engine:
 
     # ------------------------------------------------------------------ dispatch
     def run_step(self, step: M.Step, interp) -> None:
+        from .io.manifest import OutsideRunFolder
+        from .lang.diagnostics import IrtError, error
+
         fn = getattr(self, "do_" + step.kind.lower(), None)
         if fn is None:  # pragma: no cover - every step kind has a handler
             raise MissingCapability(step.span, step.kind, "an executor for this command")
-        fn(step, interp)
+        try:
+            fn(step, interp)
+        except OutsideRunFolder as e:   # a link in the run folder that leads out of it, say
+            raise IrtError(error(step.span, str(e), "outputs stay inside the run folder unless "
+                                 "`irt run --allow-outside` is given").diagnostics) from None
+        except MemoryError:
+            raise IrtError(error(step.span, "this command ran out of memory", "lower its rays or pixels; the "
+                                 "limits of docs/language.md (\"Safety and limits\") catch most such requests at "
+                                 "irt check time").diagnostics) from None
+        except OSError as e:            # an output that cannot be written: a read-only folder, a full disk ...
+            where = f" {e.filename}" if getattr(e, "filename", None) else ""
+            raise IrtError(error(step.span, f"cannot write{where}: {e.strerror or e}").diagnostics) from None
 
     def _need_rays(self, step, what):
         if self.result is None:
@@ -408,8 +456,11 @@ class Engine:
         from analysis import AnalysisError
         from analysis.rayfile import read_rays
 
+        name = step.params["file"]
+        if step.params.get("in_run_folder"):   # written by an earlier SAVE RAYS of this run
+            name = str(self.folder.output(name, create=False))
         try:
-            rf = read_rays(step.params["file"])
+            rf = read_rays(name)
         except (AnalysisError, OSError) as e:
             raise RuntimeFailure(step.span, f"LOAD RAYS: {e}") from None
         self.result = _LoadedResult(rf, step.scene)
@@ -431,16 +482,19 @@ class Engine:
                 argv.append(a)
                 continue
             name = a[len("\0path:"):]
-            out = self.folder.output(name, create=False)
             if k > 0 and raw[k - 1] in ("--output", "--plot"):
-                out.parent.mkdir(parents=True, exist_ok=True)
+                out = self.folder.output(name)
                 written.append(out)
                 argv.append(str(out))
-            elif out.exists():
+                continue
+            out = self.folder.root / name      # an input: the run folder first, then as a script's input
+            if out.exists():
                 argv.append(str(out))
             else:
-                p = Path(step.params["base"]) / name
-                argv.append(str(p if p.exists() else name))
+                from .lang.interp import find_input
+
+                p = find_input(name, Path(step.params["base"]))
+                argv.append(str(p) if p is not None else name)
         args = analysis_parser().parse_args(argv)
         buf, err = _io.StringIO(), _io.StringIO()
         with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(err):

@@ -210,8 +210,8 @@ def _wavelengths(it, b, st):
     st_.wavelengths_span = b.span
 
 
-@command("SEED", Form((V("seed", integer=True, check=lambda x: None if 0 <= x < 2 ** 63 else
-                        "must be a whole number in [0, 2^63)"),)), "system", "the random seed of the run")
+@command("SEED", Form((V("seed", integer=True, check=lambda x: nonneg(x) or (
+    "must be below 2^63 (a 63-bit seed)" if x >= 2 ** 63 else None)),)), "system", "the random seed of the run")
 def _seed(it, b, st):
     it.state.seed = b["seed"]
 

@@ -314,7 +314,7 @@ def interpolate(s: A.Str, env: Env) -> str:
             try:
                 out.append(format_value(v, env, spec))
             except (ValueError, OverflowError, TypeError):   # OverflowError: '{x:c}' of a large x
-                raise error(s.span, f"bad format '{spec}' for the value {format_value(v, env)} in an interpolation",
+                raise error(s.span, f"bad format '{spec}' in an interpolation",
                             "use a Python format such as :.3f") from None
         else:
             out.append(format_value(evaluate(p, env), env))

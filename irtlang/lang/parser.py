@@ -366,8 +366,7 @@ def _check_text(data: bytes, name: str) -> str:
         text = data[:nul].decode("utf-8-sig", "replace")
         line = text.count("\n") + 1
         col = len(text) - (text.rfind("\n") + 1) + 1
-        rest = data[nul:].split(b"\n", 1)[0].decode("utf-8", "replace")
-        src = Source(name, text + rest)
+        src = Source(name, text)     # the text up to the NUL: what follows it is not shown
         raise error(Span(src, line, col, line, col + 1), f"a NUL byte (\\0) here: {name} is not a text script")
     try:
         return data.decode("utf-8-sig")
