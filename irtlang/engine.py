@@ -233,6 +233,8 @@ class Engine:
         if what == "LEDGER":
             self._need_rays(step, "STATS LEDGER")
             res = self.result
+            if res.ledger is None:   # irt check says so first (LOAD RAYS carries no ledger)
+                raise RuntimeFailure(step.span, "STATS LEDGER needs the flux ledger of a TRACE: loaded rays carry none")
             led = res.ledger.sum(axis=2)
             rows = res.rows
             se = _se_rows(res)
@@ -358,6 +360,8 @@ class Engine:
     def do_spectrum_of(self, step, interp):
         self._need_rays(step, "SPECTRUM OF")
         res = self.result
+        if res.ledger is None:
+            raise RuntimeFailure(step.span, "SPECTRUM OF needs the flux ledger of a TRACE: loaded rays carry none")
         names = list(self.scene.objects)
         key = step.params["object"]
         if key not in names:

@@ -126,6 +126,8 @@ def show(name: str, value: float) -> str:
         return f"{value:.0f} bytes"
     if value == int(value) and value < 1e15:
         v = f"{int(value):,}"
+    elif isinstance(value, int) and value.bit_length() > 1000:   # beyond a float
+        v = f"about 10^{len(str(value)) - 1}"
     else:
         v = f"{value:.3g}"
     return f"{v} {unit}".rstrip()

@@ -89,6 +89,7 @@ class Interpreter(BindContext):
         self.limits = limits if limits is not None else current_limits()   # irtlang/limits.py
         self.allow_outside = allow_outside          # irt run --allow-outside: outputs may leave the run folder
         self.steps_run = 0                          # statements and loop iterations run (limit steps)
+        self.rays_from = None                       # the step that made the current rays (TRACE, LOAD_RAYS)
         self.saved = {}                             # output name (normalized) -> span of the SAVE RAYS writing it
         self.script_names = set()                  # where a script was read from (INCLUDE resolution)
         self.out = out or (lambda s: print(s, flush=True))
@@ -523,6 +524,13 @@ class Interpreter(BindContext):
                 raise error(span, f"an image of {over}", lim.hint("pixels"))
         if kind == "TRACE":
             self.check_trace(span)
+        if kind in ("TRACE", "LOAD_RAYS", "RESET"):
+            self.rays_from = kind
+        if self.rays_from == "LOAD_RAYS" and (kind == "SPECTRUM_OF" or (kind == "STATS" and params.get("what")
+                                                                         in (None, "LEDGER"))):
+            what = "SPECTRUM OF" if kind == "SPECTRUM_OF" else "STATS LEDGER"
+            raise error(span, f"{what} needs the flux ledger of a TRACE: rays read by LOAD RAYS carry none",
+                        "put it after the TRACE, before SAVE RAYS; STATS POSITION, SPOTS, EXPORT work on loaded rays")
 
     def check_trace(self, span: Span) -> None:
         """Rays of one TRACE and each detector's pixels against the limits `rays` and `pixels`."""
