@@ -115,6 +115,7 @@ class Engine:
         self.consider: tuple | None = None
         self.predicate = None
         self.rays_traced = 0
+        self._saved_from = {}   # resolved path of a SAVE RAYS file -> (the result and scene it was saved from)
 
     # ------------------------------------------------------------------ dispatch
     def run_step(self, step: M.Step, interp) -> None:
@@ -454,6 +455,7 @@ class Engine:
                       script_sha256=self.folder.info["script_sha256"], data_tier=self.folder.info["data_tier"],
                       rays_traced=self.result.n_traced)
         self.folder.record(path, "rays")
+        self._saved_from[str(path.resolve())] = (self.result, self.scene)   # LOAD RAYS of it keeps the ledger
         self.out(f"SAVE RAYS: {int(m.sum()):,} rays -> {step.params['file']}")
 
     def do_load_rays(self, step, interp):
@@ -469,6 +471,14 @@ class Engine:
             raise RuntimeFailure(step.span, f"LOAD RAYS: {e}") from None
         self.result = _LoadedResult(rf, step.scene)
         self.scene = step.scene
+        src = self._saved_from.get(str(Path(name).resolve())) if step.params.get("in_run_folder") else None
+        if src is not None and getattr(src[0], "ledger", None) is not None:
+            # a file this run saved: its flux ledger is the one of the TRACE that wrote it (STATS LEDGER,
+            # SPECTRUM OF after the LOAD, as LANGUAGE.md's example does)
+            res, self.scene = src
+            self.result.ledger, self.result.ledger_sq = res.ledger, res.ledger_sq
+            self.result.rows, self.result.n_traced = res.rows, res.n_traced
+            self.result.packed.n_rows, self.result.packed.object_names = res.packed.n_rows, res.packed.object_names
         self.out(f"LOAD RAYS: {rf.n_rays:,} rays from {Path(step.params['file']).name}")
 
     def do_analyze(self, step, interp):

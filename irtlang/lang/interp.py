@@ -524,13 +524,14 @@ class Interpreter(BindContext):
                 raise error(span, f"an image of {over}", lim.hint("pixels"))
         if kind == "TRACE":
             self.check_trace(span)
-        if kind in ("TRACE", "LOAD_RAYS", "RESET"):
-            self.rays_from = kind
-        if self.rays_from == "LOAD_RAYS" and (kind == "SPECTRUM_OF" or (kind == "STATS" and params.get("what")
+        if kind in ("TRACE", "LOAD_RAYS", "RESET"):   # a file this script saved keeps its TRACE's ledger
+            self.rays_from = "LOADED" if kind == "LOAD_RAYS" and not params.get("in_run_folder") else kind
+        if self.rays_from == "LOADED" and (kind == "SPECTRUM_OF" or (kind == "STATS" and params.get("what")
                                                                          in (None, "LEDGER"))):
             what = "SPECTRUM OF" if kind == "SPECTRUM_OF" else "STATS LEDGER"
-            raise error(span, f"{what} needs the flux ledger of a TRACE: rays read by LOAD RAYS carry none",
-                        "put it after the TRACE, before SAVE RAYS; STATS POSITION, SPOTS, EXPORT work on loaded rays")
+            raise error(span, f"{what} needs the flux ledger of a TRACE: rays that LOAD RAYS reads from a file "
+                        "another run wrote carry none", "STATS POSITION, SPOTS, EXPORT work on loaded rays; the "
+                        "ledger of a file this script saves is kept")
 
     def check_trace(self, span: Span) -> None:
         """Rays of one TRACE and each detector's pixels against the limits `rays` and `pixels`."""
