@@ -57,6 +57,10 @@ def atomic_path(path):
     os.close(fd)
     try:
         yield Path(tmp)
+        with contextlib.suppress(OSError):   # mkstemp makes 0600: the mode a plain open() would give
+            mask = os.umask(0o022)
+            os.umask(mask)
+            os.chmod(tmp, 0o666 & ~mask)
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):

@@ -48,11 +48,13 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     r.add_argument("--connect-timeout", type=float, default=5.0, metavar="S",
                    help="seconds to wait for the Dask scheduler and a worker (default 5)")
     r.add_argument("--debug", action="store_true", default=argparse.SUPPRESS)
+    _safety_options(r)
 
     c = sub.add_parser("check", help="parse and validate scripts only")
     c.add_argument("files", nargs="+")
     c.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="set a variable before the script runs (as irt run --set)")
+    _safety_options(c)
     c.add_argument("--debug", action="store_true", default=argparse.SUPPRESS)
 
     f = sub.add_parser("fmt", help="print a script in canonical formatting")
@@ -69,6 +71,22 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
         if acli is not None and hasattr(acli, "build_parser"):
             acli.build_parser(a.add_subparsers(dest="analysis_cmd", metavar="ANALYSIS"))
     return p
+
+
+def _safety_options(p) -> None:
+    """--limit and --allow-outside (docs/language.md, "Safety and limits"; irtlang/limits.py)."""
+    p.add_argument("--limit", action="append", default=[], metavar="NAME=VALUE",
+                   help="change a resource limit (rays, pixels, memory, steps, string, statement, script, input, "
+                        "format), e.g. --limit rays=1e11 --limit memory=200G; repeatable (also IRT_LIMITS)")
+    p.add_argument("--allow-outside", action="store_true",
+                   help="let the script's outputs name absolute paths and '..' paths outside the run folder")
+
+
+def _limits(args):
+    """The run's limits (IRT_LIMITS, then --limit); a bad entry raises LimitError."""
+    from .limits import Limits
+
+    return Limits.from_env(getattr(args, "limit", None) or ())
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -95,6 +113,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("irt: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except _usage_errors() as e:   # a bad --limit, an output folder that cannot be made: the user's to fix
+        print(f"irt: {e}", file=sys.stderr)
+        return EXIT_INPUT
     except Exception:  # the last line of defence: never a bare traceback unless --debug
         if debug:
             traceback.print_exc()
@@ -106,24 +127,40 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_INTERNAL
 
 
+class UsageError(Exception):
+    """A command-line problem the user can fix (reported as `irt: message`, exit 2)."""
+
+
+def _usage_errors():
+    from .limits import LimitError
+
+    return (UsageError, LimitError)
+
+
 def _print_diags(e) -> None:
     print(e.render(), file=sys.stderr)
     n = len(e.diagnostics)
     print(f"{n} error{'s' if n != 1 else ''}", file=sys.stderr)
 
 
-def _load_check(path: str, presets=()):
+def _load_check(path: str, presets=(), args=None):
     """Check a script; returns the interpreter, or raises IrtError with every diagnostic."""
     from .core.diagnostics import Diagnostic, IrtError, Source, Span
+    from .engine import check_trace_memory
     from .lang.interp import check_file
 
     p = Path(path)
     at = Span(Source(str(path), ""), 0, 0, 0, 0)  # renders as "PATH: error: ..." (not "<input>")
-    if not p.exists():
-        raise IrtError(Diagnostic(at, f"no such file: {path}"))
+    if "\0" in str(path) or not p.exists():
+        raise IrtError(Diagnostic(at, f"no such file: {path!r}" if "\0" in str(path) else f"no such file: {path}"))
     if p.is_dir():
         raise IrtError(Diagnostic(at, f"{path} is a folder, not a script"))
-    return check_file(p, presets)
+    limits = _limits(args)
+    it = check_file(p, presets, limits=limits, allow_outside=bool(getattr(args, "allow_outside", False)))
+    diags = check_trace_memory(it.steps, limits)   # needs every step of the script: which records are kept
+    if diags:
+        raise IrtError(diags)
+    return it
 
 
 def cmd_check(args) -> int:
@@ -132,7 +169,7 @@ def cmd_check(args) -> int:
     status = EXIT_OK
     for f in args.files:
         try:
-            _load_check(f, getattr(args, "set", None) or ())
+            _load_check(f, getattr(args, "set", None) or (), args)
             print(f"{f}: ok")
         except IrtError as e:
             _print_diags(e)
@@ -151,7 +188,7 @@ def cmd_run(args) -> int:
         print("irt: --workers needs at least 1 worker", file=sys.stderr)
         return EXIT_INPUT
     try:
-        _load_check(args.file, getattr(args, "set", None) or ())   # input errors before reaching a cluster
+        _load_check(args.file, getattr(args, "set", None) or (), args)   # input errors before reaching a cluster
     except IrtError:
         return _run_script(args)
     try:
@@ -175,7 +212,7 @@ def _run_script(args, runner=None) -> int:
     from .lang.interp import Interpreter
 
     try:
-        checked = _load_check(args.file, getattr(args, "set", None) or ())
+        checked = _load_check(args.file, getattr(args, "set", None) or (), args)
     except IrtError as e:
         _print_diags(e)
         return EXIT_INPUT
@@ -184,9 +221,14 @@ def _run_script(args, runner=None) -> int:
     from .engine import needs_from_steps
     from .tracer import Progress
 
-    folder = RunFolder(out, str(script), checked.script_hash, checked.state.seed)
+    try:   # the manifest says "running" (incomplete) before any output is written
+        folder = RunFolder(out, str(script), checked.script_hash, checked.state.seed,
+                           allow_outside=bool(getattr(args, "allow_outside", False)))
+    except (OSError, ValueError) as e:
+        raise UsageError(f"cannot use {str(out)!r} as the output folder: {getattr(e, 'strerror', None) or e}") from None
     records, history = needs_from_steps(checked.steps)
-    it = Interpreter(engine=Engine(folder, records=records, history=history, runner=runner))
+    it = Interpreter(engine=Engine(folder, records=records, history=history, runner=runner), limits=checked.limits,
+                     allow_outside=checked.allow_outside)
     status = "complete"
     code = EXIT_OK
     try:

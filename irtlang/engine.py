@@ -54,6 +54,40 @@ def needs_from_steps(steps) -> tuple[bool, bool]:
     return rec, hist
 
 
+def trace_memory_bytes(scene, records: bool, history: bool, level: int) -> float:
+    """An estimate of the memory one TRACE of `scene` needs: its detector images (sum and sum of squares, and
+    the copies the result keeps) and, when later commands need them, the per-ray records (irtlang.tracer: two
+    record slots per source ray, 124 bytes each plus 4 per history entry, gathered into one array at the end)."""
+    from .lang.interp import source_rays
+    from .tracer import HISTORY_CAP
+
+    L = len(scene.wavelengths_nm)
+    img = 0.0
+    for obj in scene.objects.values():
+        d = obj.detector
+        if d is not None:
+            img += (len(d.filters) if d.filters else L) * float(d.nx) * float(d.ny) * 8 * 4
+    rays = float(sum(source_rays(s) for s in scene.sources)) * L
+    rec = rays * (124 + 4 * (min(level, HISTORY_CAP) if history else 0)) * 2 * 2 if records else 0.0
+    return img + rec
+
+
+def check_trace_memory(steps, limits) -> list:
+    """Diagnostics for the TRACEs of a checked script whose estimated memory is over the limit `memory`."""
+    from .core.diagnostics import Diagnostic
+
+    records, history = needs_from_steps(steps)
+    out = []
+    for s in steps:
+        if s.kind == "TRACE" and s.scene is not None:
+            need = trace_memory_bytes(s.scene, records, history, int(s.params.get("level", 1000)))
+            over = limits.exceeded("memory", need)
+            if over:
+                what = " (with per-ray records, which a later SPOTS, FOCUS, SAVE RAYS ... needs)" if records else ""
+                out.append(Diagnostic(s.span, f"this TRACE would need about {over}{what}", limits.hint("memory")))
+    return out
+
+
 class Engine:
     def __init__(self, folder: RunFolder, *, records: bool = True, history: bool = True, progress=None,
                  out=None, runner=None):
@@ -69,13 +103,28 @@ class Engine:
         self.consider: tuple | None = None
         self.predicate = None
         self.rays_traced = 0
+        self._saved_from = {}   # resolved path of a SAVE RAYS file -> (the result and scene it was saved from)
 
     # ------------------------------------------------------------------ dispatch
     def run_step(self, step: M.Step, interp) -> None:
+        from .io.manifest import OutsideRunFolder
+        from .core.diagnostics import IrtError, error
+
         fn = getattr(self, "do_" + step.kind.lower(), None)
         if fn is None:  # pragma: no cover - every step kind has a handler
             raise MissingCapability(step.span, step.kind, "an executor for this command")
-        fn(step, interp)
+        try:
+            fn(step, interp)
+        except OutsideRunFolder as e:   # a link in the run folder that leads out of it, say
+            raise IrtError(error(step.span, str(e), "outputs stay inside the run folder unless "
+                                 "`irt run --allow-outside` is given").diagnostics) from None
+        except MemoryError:
+            raise IrtError(error(step.span, "this command ran out of memory", "lower its rays or pixels; the "
+                                 "limits of docs/language.md (\"Safety and limits\") catch most such requests at "
+                                 "irt check time").diagnostics) from None
+        except OSError as e:            # an output that cannot be written: a read-only folder, a full disk ...
+            where = f" {e.filename}" if getattr(e, "filename", None) else ""
+            raise IrtError(error(step.span, f"cannot write{where}: {e.strerror or e}").diagnostics) from None
 
     def _need_rays(self, step, what):
         if self.result is None:
@@ -236,6 +285,8 @@ class Engine:
         if what == "LEDGER":
             self._need_rays(step, "STATS LEDGER")
             res = self.result
+            if res.ledger is None:   # irt check says so first (LOAD RAYS carries no ledger)
+                raise RuntimeFailure(step.span, "STATS LEDGER needs the flux ledger of a TRACE: loaded rays carry none")
             led = res.ledger.sum(axis=2)
             rows = res.rows
             se = _se_rows(res)
@@ -361,6 +412,8 @@ class Engine:
     def do_spectrum_of(self, step, interp):
         self._need_rays(step, "SPECTRUM OF")
         res = self.result
+        if res.ledger is None:
+            raise RuntimeFailure(step.span, "SPECTRUM OF needs the flux ledger of a TRACE: loaded rays carry none")
         names = list(self.scene.objects)
         key = step.params["object"]
         if key not in names:
@@ -453,18 +506,30 @@ class Engine:
                       script_sha256=self.folder.info["script_sha256"], data_tier=self.folder.info["data_tier"],
                       rays_traced=self.result.n_traced)
         self.folder.record(path, "rays")
+        self._saved_from[str(path.resolve())] = (self.result, self.scene)   # LOAD RAYS of it keeps the ledger
         self.out(f"SAVE RAYS: {int(m.sum()):,} rays -> {step.params['file']}")
 
     def do_load_rays(self, step, interp):
         from .core.checks import AnalysisError
         from .io.rayfile import read_rays
 
+        name = step.params["file"]
+        if step.params.get("in_run_folder"):   # written by an earlier SAVE RAYS of this run
+            name = str(self.folder.output(name, create=False))
         try:
-            rf = read_rays(step.params["file"])
+            rf = read_rays(name)
         except (AnalysisError, OSError) as e:
             raise RuntimeFailure(step.span, f"LOAD RAYS: {e}") from None
         self.result = _LoadedResult(rf, step.scene)
         self.scene = step.scene
+        src = self._saved_from.get(str(Path(name).resolve())) if step.params.get("in_run_folder") else None
+        if src is not None and getattr(src[0], "ledger", None) is not None:
+            # a file this run saved: its flux ledger is the one of the TRACE that wrote it (STATS LEDGER,
+            # SPECTRUM OF after the LOAD, as LANGUAGE.md's example does)
+            res, self.scene = src
+            self.result.ledger, self.result.ledger_sq = res.ledger, res.ledger_sq
+            self.result.rows, self.result.n_traced = res.rows, res.n_traced
+            self.result.packed.n_rows, self.result.packed.object_names = res.packed.n_rows, res.packed.object_names
         self.out(f"LOAD RAYS: {rf.n_rays:,} rays from {Path(step.params['file']).name}")
 
     def do_analyze(self, step, interp):
@@ -482,16 +547,19 @@ class Engine:
                 argv.append(a)
                 continue
             name = a[len("\0path:"):]
-            out = self.folder.output(name, create=False)
             if k > 0 and raw[k - 1] in ("--output", "--plot"):
-                out.parent.mkdir(parents=True, exist_ok=True)
+                out = self.folder.output(name)
                 written.append(out)
                 argv.append(str(out))
-            elif out.exists():
+                continue
+            out = self.folder.root / name      # an input: the run folder first, then as a script's input
+            if out.exists():
                 argv.append(str(out))
             else:
-                p = Path(step.params["base"]) / name
-                argv.append(str(p if p.exists() else name))
+                from .lang.interp import find_input
+
+                p = find_input(name, Path(step.params["base"]))
+                argv.append(str(p) if p is not None else name)
         args = analysis_parser().parse_args(argv)
         buf, err = _io.StringIO(), _io.StringIO()
         with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(err):

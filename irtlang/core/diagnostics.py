@@ -85,11 +85,17 @@ class Diagnostic:
 
 def _excerpt(s: Span) -> list[str]:
     # a control character shows as a space, so that the caret stays under its column
-    text = "".join(" " if unicodedata.category(c) in ("Cc", "Zl", "Zp") else c for c in s.source.line(s.line))
+    line, col = s.source.line(s.line), s.col
+    cut = 0
+    if len(line) > 200:  # a very long line: the 200 characters around the caret (limit `statement`)
+        cut = max(0, min(col - 100, len(line) - 200))
+        line = line[cut:cut + 200]
+        col -= cut
+    text = "".join(" " if unicodedata.category(c) in ("Cc", "Zl", "Zp") else c for c in line)
     gutter = f"{s.line:5d} | "
     width = (s.end_col - s.col) if s.end_line == s.line and s.end_col > s.col else 1
-    width = max(1, min(width, max(1, len(text) - s.col + 1)))
-    caret = " " * (len(gutter) - 2) + "| " + " " * (s.col - 1) + "^" * width
+    width = max(1, min(width, max(1, len(text) - col + 1)))
+    caret = " " * (len(gutter) - 2) + "| " + " " * (col - 1) + "^" * width
     return [gutter + text, caret]
 
 

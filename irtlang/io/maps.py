@@ -29,7 +29,10 @@ def check_latlon_file(path: Path, span: Span) -> np.ndarray:
     try:
         a = load_latlon(path)
     except Exception as e:  # numpy and h5py raise several kinds on a bad file
-        raise error(span, f"cannot read map '{path.name}': {e}") from None
+        # not the reader's message: numpy quotes the bytes it found where a header should be
+        why = str(e) if isinstance(e, ValueError) and str(e).startswith(("unsupported", "no 2-D")) else \
+            f"not a valid {path.suffix.lower() or 'map'} file ({type(e).__name__})"
+        raise error(span, f"cannot read map '{path.name}': {why}") from None
     if a.ndim != 2:
         raise error(span, f"map '{path.name}' has shape {a.shape}; a LATLON map is 2-D (lat rows, lon columns)")
     nlat, nlon = a.shape

@@ -47,7 +47,8 @@ def read_rows(path: Path, span: Span) -> list[tuple[int, list]]:
         except ValueError:
             if not rows:
                 continue  # a header line
-            raise error(span, f"{path.name}:{ln}: not a number in '{line.strip()}'") from None
+            # the line itself is not quoted: a diagnostic never shows what a data file holds (issue 21)
+            raise error(span, f"{path.name}:{ln}: a value that is not a number (after the first numeric row)") from None
         rows.append((ln, vals))
     if len({len(v) for _, v in rows}) > 1:
         raise error(span, f"'{path.name}': rows have different numbers of columns")

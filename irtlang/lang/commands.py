@@ -208,7 +208,8 @@ def _wavelengths(it, b, st):
     st_.wavelengths_span = b.span
 
 
-@command("SEED", Form((V("seed", integer=True, check=nonneg),)), "system", "the random seed of the run")
+@command("SEED", Form((V("seed", integer=True, check=lambda x: nonneg(x) or (
+    "must be below 2^63 (a 63-bit seed)" if x >= 2 ** 63 else None)),)), "system", "the random seed of the run")
 def _seed(it, b, st):
     it.state.seed = b["seed"]
 
@@ -614,6 +615,8 @@ def _source_cmd(head):
         elif mod.ROLE == "direction":
             g = it.state.pending_grid
             if g is None:
+                if it.state.source_failed:   # the GRID (or a source) before it failed: no follow-on error
+                    raise it.follow_on(b.head_span, f"{full} has no GRID: the GRID before it failed")
                 raise error(b.head_span, f"{full} needs a GRID before it", "GRID RECT ... or GRID DISK ... first")
             it.state.pending_grid = None
             it.state.sources.append(M.Source(f"{g[0]}+{kind}", M.frozen_params({"grid": g[1], "direction": params}),
@@ -636,6 +639,8 @@ def _flux(it, b, st):
     if it.state.pending_grid is not None:
         raise error(b.span, "FLUX follows a GRID that has no SOURCE direction yet", "put SOURCE ... before FLUX")
     if not it.state.sources:
+        if it.state.source_failed:
+            raise it.follow_on(b.head_span, "FLUX has no source to apply to: the source before it failed")
         raise error(b.head_span, "FLUX has no source to apply to", "define a source first (GRID + SOURCE, or EMITTING)")
     f = (M.Flux("total", b["flux"], None, b.span) if b.variants["how"] == "TOTAL"
          else M.Flux("spectrum", None, b["spectrum"], b.span))
@@ -682,6 +687,8 @@ def _trace(it, b, st):
     if s.pending_grid is not None:
         raise error(b.span, "a GRID has no SOURCE direction", notes=[(s.pending_grid[2], "this GRID")])
     if not s.sources:
+        if s.source_failed:
+            raise it.follow_on(b.span, "TRACE has no source: its source's definition failed")
         raise error(b.span, "TRACE has no source", "define GRID + SOURCE, or EMITTING ..., before TRACE")
     if s.block is not None:
         raise error(b.span, "TRACE inside an open SURFACE block", "close it with OBJECT name first")
@@ -726,6 +733,7 @@ def _trace(it, b, st):
     it.step("TRACE", {"level": s.level, "halt": s.halt, "until_error": b.get("error"), "until_target": b.get("target"),
                       "camera": camera}, b.span)
     s.sources.clear()
+    s.source_failed = False
     s.traces += 1
 
 
@@ -777,6 +785,10 @@ def _save(it, b, st):
 
 @command("LOAD", Form((Choice("what", ("RAYS",)), Path("file"))), "trace", "load ray records saved by SAVE RAYS")
 def _load(it, b, st):
+    saved = it.saved_output(b["file"])   # written by an earlier SAVE RAYS of this run: read from the run folder
+    if saved is not None:
+        it.step("LOAD_RAYS", {"file": saved, "in_run_folder": True}, b.span)
+        return
     path = it.input_path(b["file"], b.span_of("file"))
     it.step("LOAD_RAYS", {"file": str(path)}, b.span)
 

@@ -126,7 +126,7 @@ def _binop(e: A.BinOp, env: Env) -> Value:
     lv, rv = evaluate(e.left, env), evaluate(e.right, env)
     if isinstance(lv, str) or isinstance(rv, str):
         if e.op == "+" and isinstance(lv, str) and isinstance(rv, str):
-            return lv + rv
+            return _short(lv + rv, e.span, env)
         if e.op in ("==", "!=") and isinstance(lv, str) and isinstance(rv, str):
             return Quantity(float((lv.lower() == rv.lower()) == (e.op == "==")))
         raise error(e.op_span, f"'{e.op}' does not apply to a string")
@@ -253,6 +253,35 @@ def _call(e: A.Call, env: Env) -> Value:
         raise error(e.span, f"{name}() overflows") from None
 
 
+def _limits(env: Env):
+    lim = getattr(env, "limits", None)
+    if lim is None:
+        from ..limits import current
+        lim = env.limits = current()
+    return lim
+
+
+def _short(text: str, span: Span, env: Env) -> str:
+    """A string value no longer than the limit `string` (irtlang/limits.py)."""
+    lim = _limits(env)
+    over = lim.exceeded("string", len(text))
+    if over:
+        raise error(span, f"this string would be too long: {over}", lim.hint("string"))
+    return text
+
+
+def _check_spec(spec: str, span: Span, env: Env) -> None:
+    """Widths and precisions of a format ('{x:>4000000000}' would build a 4 GB string) within the limit
+    `format`."""
+    import re
+
+    lim = _limits(env)
+    for m in re.finditer(r"[0-9]+", spec):
+        over = lim.exceeded("format", int(m.group()))
+        if over:
+            raise error(span, f"format '{spec}': a width or precision of {over}", lim.hint("format"))
+
+
 def format_value(v: Value, env: Env, spec: str | None = None) -> str:
     from ..core.units import fmt_number, DISPLAY
 
@@ -274,14 +303,19 @@ def format_value(v: Value, env: Env, spec: str | None = None) -> str:
 def interpolate(s: A.Str, env: Env) -> str:
     out = []
     for p in s.parts:
+        if out and len(out) % 16 == 0:   # many long pieces: stop before they are joined
+            _short("".join(out), s.span, env)
         if isinstance(p, str):
             out.append(p)
         elif isinstance(p, tuple):
             _, ex, spec = p
+            _check_spec(spec, s.span, env)
+            v = evaluate(ex, env)
             try:
-                out.append(format_value(evaluate(ex, env), env, spec))
-            except ValueError:
-                raise error(s.span, f"bad format '{spec}' in an interpolation", "use a Python format such as :.3f") from None
+                out.append(format_value(v, env, spec))
+            except (ValueError, OverflowError, TypeError):   # OverflowError: '{x:c}' of a large x
+                raise error(s.span, f"bad format '{spec}' in an interpolation",
+                            "use a Python format such as :.3f") from None
         else:
             out.append(format_value(evaluate(p, env), env))
-    return "".join(out)
+    return _short("".join(out), s.span, env)

@@ -22,6 +22,7 @@ from .expr import CONSTANTS, Env, evaluate, format_value
 from .parser import parse_source, read_source
 from .spec import BindContext, bind, match_keyword
 from ..core.units import LENGTH, NONE, UNITS, Quantity, dim_name
+from ..limits import Limits, current as current_limits
 from ..model import scene as M
 from . import commands
 from .state import State, StopScript, _SurfaceBlock  # noqa: F401  (re-exported: irtlang.lang.interp.State)
@@ -37,8 +38,15 @@ DEFINES = {"MEDIUM": "medium", "COATING": "coating", "SPECTRUM": "spectrum", "MO
 
 
 class Interpreter(BindContext):
-    def __init__(self, engine: Any = None, out: Callable[[str], None] | None = None, *, check_only: bool = False):
+    def __init__(self, engine: Any = None, out: Callable[[str], None] | None = None, *, check_only: bool = False,
+                 limits: Limits | None = None, allow_outside: bool = False):
         self.engine = engine
+        self.limits = limits if limits is not None else current_limits()   # irtlang/limits.py
+        self.allow_outside = allow_outside          # irt run --allow-outside: outputs may leave the run folder
+        self.steps_run = 0                          # statements and loop iterations run (limit steps)
+        self.rays_from = None                       # the step that made the current rays (TRACE, LOAD_RAYS)
+        self.saved = {}                             # output name (normalized) -> span of the SAVE RAYS writing it
+        self.script_names = set()                  # where a script was read from (INCLUDE resolution)
         self.out = out or (lambda s: print(s, flush=True))
         self.check_only = check_only
         self.state = State()
@@ -55,19 +63,23 @@ class Interpreter(BindContext):
         self.base_dir = Path.cwd()
         self.env = Env(self.lookup, lambda: self.state.units, self.variable_names)
         self.env.failed_var = self._failed_var
+        self.env.limits = self.limits
         self._cmd_span: Span | None = None
+        self._cmd: A.Command | None = None
         self.commands = commands.TABLE
 
     # ------------------------------------------------------------ entry points
     def run_file(self, path: str | Path) -> None:
         p = Path(path)
-        src = read_source(p)
+        src = read_source(p, max_bytes=self.limits["script"])
         self.base_dir = p.resolve().parent
         self.include_stack = [p.resolve()]
         self.run_source(src)
 
     def run_source(self, src: Source) -> None:
         self.sources.append(src)
+        self.steps_run = 0
+        check_source_size(src, self.limits)
         prog = parse_source(src, self.is_macro_head)
         try:
             self.exec_block(prog.stmts)
@@ -100,6 +112,31 @@ class Interpreter(BindContext):
         for g in st.group_stack:
             self.diags.add(Diagnostic(st.groups[g].span, f"GROUP {st.groups[g].name} without END GROUP"))
         st.group_stack.clear()
+        self.check_references()
+
+    def check_references(self) -> None:
+        """Names that may be defined later than where they are used (TOWARD targets): checked once the whole
+        script has run, so a TOWARD naming an object that is never defined is an error without a TRACE too."""
+        st = self.state
+        names = [o.name for o in st.objects.values()]
+
+        def missing(t):
+            return t is not None and t.upper() not in st.objects and ("object", t.upper()) not in st.failed
+
+        for src in st.sources:
+            t = src.params.get("toward")
+            if missing(t):
+                self.diags.add(Diagnostic(src.span, f"TOWARD target '{t}' is not an object", did_you_mean(t, names)))
+        for med in st.media.values():
+            t = med.params.get("volume", {}).get("toward") if med.params else None
+            if missing(t):
+                self.diags.add(Diagnostic(med.span, f"MEDIUM {med.name} ... TOWARD '{t}' is not an object",
+                                          did_you_mean(t, names)))
+        for obj in st.objects.values():
+            for sc in obj.scatter:
+                if missing(sc.toward):
+                    self.diags.add(Diagnostic(sc.span, f"SCATTER ... TOWARD '{sc.toward}' is not an object",
+                                              did_you_mean(sc.toward, names)))
 
     def is_macro_head(self, head: str) -> bool:
         try:
@@ -153,7 +190,17 @@ class Interpreter(BindContext):
         for st in stmts:
             self.exec_stmt(st)
 
+    def count_step(self, span: Span) -> None:
+        """One statement or loop iteration more; past the limit `steps` the script stops with a diagnostic."""
+        self.steps_run += 1
+        if self.steps_run > self.limits["steps"]:
+            self.diags.add(Diagnostic(span, f"the script stops here: it ran more than the limit "
+                                            f"steps={self.limits['steps']:,.0f} statements and loop iterations",
+                                      self.limits.hint("steps")))
+            raise StopScript()
+
     def exec_stmt(self, st) -> None:
+        self.count_step(st.span)
         try:
             if isinstance(st, A.Assign):
                 try:
@@ -213,6 +260,7 @@ class Interpreter(BindContext):
         if n > MAX_LOOP_ITERATIONS:
             raise error(st.span, f"DO loop of {n} iterations (more than {MAX_LOOP_ITERATIONS})")
         for i in range(n):
+            self.count_step(st.span)
             v = lo + i * dv
             self.assign(st.var, Quantity(v, None if dim in (None,) else dim) if dim is not None
                         else Quantity(v), st.var_span)
@@ -240,6 +288,7 @@ class Interpreter(BindContext):
             raise error(st.head_span, f"unknown command '{st.head}'", hint)
         cmd = self.commands[key]
         self._cmd_span = st.span
+        self._cmd = st
         try:
             b = bind(key, cmd.form, st, self) if cmd.form is not None else None
             cmd.handler(self, b, st)
@@ -254,6 +303,8 @@ class Interpreter(BindContext):
         s = self.state
         if key == "WAVELENGTHS":
             self.wavelengths_failed = True
+        if key in ("GRID", "SOURCE", "EMITTING", "FLUX"):
+            s.source_failed = True
         if key in SURFACE_KINDS and s.block is not None:
             s.block.failed = True
             return
@@ -332,15 +383,39 @@ class Interpreter(BindContext):
     def length_factor(self) -> float:
         return UNITS[self.state.units.lower()][0]
 
-    def input_path(self, rel: str, span: Span) -> Path:
-        """An input file: relative paths are relative to the including script's folder."""
+    def input_path(self, rel: str, span: Span, limit: str = "input") -> Path:
+        """An input file (INCLUDE, TABLE, MAP, LOAD RAYS, ...): a relative path is looked up in the folder of the
+        script that names it, then in each folder of IRT_PATH; the file must be a regular file no larger than the
+        limit `limit` (irtlang/limits.py)."""
         base = self.include_stack[-1].parent if self.include_stack else self.base_dir
-        p = (base / rel) if not Path(rel).is_absolute() else Path(rel)
-        if not p.exists():
-            raise error(span, f"file not found: '{rel}' (looked in {p.parent})")
+        p = find_input(rel, base)
+        if p is None:
+            where = [str(base)] + [d for d in search_path() if d]
+            raise error(span, f"file not found: '{rel}' (looked in {', '.join(where)})",
+                        "a relative path is relative to the script's folder, then to the folders of IRT_PATH")
         if p.is_dir():
             raise error(span, f"'{rel}' is a folder, not a file")
+        if not p.is_file():
+            raise error(span, f"'{rel}' is not a regular file")
+        size = p.stat().st_size
+        over = self.limits.exceeded(limit, size)
+        if over:
+            raise error(span, f"'{rel}' is too large: {over}", self.limits.hint(limit))
         return p
+
+    def saved_output(self, rel: str) -> str | None:
+        """The name of an output an earlier SAVE RAYS of this script writes, if `rel` names it."""
+        k = _normal(rel)
+        return k if k in self.saved else None
+
+    def output_name(self, rel: str, span: Span) -> str:
+        """An output file named in the script: it must stay inside the run folder (no absolute path, no '..'
+        that climbs out of it) unless the run allows it (irt run --allow-outside).  Returns the name."""
+        problem = output_problem(rel, self.allow_outside)
+        if problem:
+            raise error(span, problem, "outputs go inside the run folder (irt run --out DIR); to write elsewhere "
+                        "on purpose, run with `irt run --allow-outside`" if "run folder" in problem else None)
+        return rel
 
     # ------------------------------------------------------------ helpers for commands
     def define(self, ns: str, key: str, value, span: Span, *, unique: bool = False) -> None:
@@ -357,10 +432,86 @@ class Interpreter(BindContext):
         self.state.failed.add((ns, name.upper()))
 
     def step(self, kind: str, params: dict, span: Span, with_scene: bool = True) -> None:
+        self.check_step(kind, params, span)
         s = M.Step(kind, M.frozen_params(params), self.state.scene() if with_scene else None, span)
         self.steps.append(s)
         if self.engine is not None:
             self.engine.run_step(s, self)
+
+    # ------------------------------------------------------------ containment and limits of steps
+    def _arg_span(self, text: str, default: Span) -> Span:
+        """The span of the current command's quoted argument whose value is `text` (else `default`)."""
+        st = self._cmd
+        for a in (st.args if st is not None else ()):
+            if isinstance(a, A.Str):
+                try:
+                    if self.string(a) == text:
+                        return a.span
+                except IrtError:
+                    pass
+        return default
+
+    def check_step(self, kind: str, params: dict, span: Span) -> None:
+        """What a step asks for, checked before it runs (and by irt check): every output it names stays inside
+        the run folder; images and traces within the limits (irtlang/limits.py)."""
+        lim = self.limits
+        f = params.get("file")
+        if isinstance(f, str) and kind != "LOAD_RAYS":
+            self.output_name(f, self._arg_span(f, span))
+            if kind == "SAVE_RAYS":
+                self.saved[_normal(f)] = span
+        if kind == "ANALYZE":
+            argv = params.get("argv", ())
+            for prev, a in zip(argv, argv[1:]):
+                if prev in ("--output", "--plot") and isinstance(a, str) and a.startswith("\0path:"):
+                    name = a[len("\0path:"):]
+                    self.output_name(name, self._arg_span(name, span))
+        pix = None
+        if kind == "PIXELS":
+            pix = params["nx"] * params["ny"]
+        elif kind == "PSF" and params.get("size"):
+            pix = params["size"] ** 2
+        if pix is not None:
+            over = lim.exceeded("pixels", pix)
+            if over:
+                raise error(span, f"an image of {over}", lim.hint("pixels"))
+        if kind == "TRACE":
+            self.check_trace(span)
+        if kind in ("TRACE", "LOAD_RAYS", "RESET"):   # a file this script saved keeps its TRACE's ledger
+            self.rays_from = "LOADED" if kind == "LOAD_RAYS" and not params.get("in_run_folder") else kind
+        if self.rays_from == "LOADED" and (kind == "SPECTRUM_OF" or (kind == "STATS" and params.get("what")
+                                                                         in (None, "LEDGER"))):
+            what = "SPECTRUM OF" if kind == "SPECTRUM_OF" else "STATS LEDGER"
+            raise error(span, f"{what} needs the flux ledger of a TRACE: rays that LOAD RAYS reads from a file "
+                        "another run wrote carry none", "STATS POSITION, SPOTS, EXPORT work on loaded rays; the "
+                        "ledger of a file this script saves is kept")
+
+    def check_trace(self, span: Span) -> None:
+        """Rays of one TRACE and each detector's pixels against the limits `rays` and `pixels`."""
+        lim, st = self.limits, self.state
+        for obj in st.objects.values():
+            det = obj.detector
+            if det is not None:
+                planes = len(det.filters) if det.filters else len(st.wavelengths_nm)
+                over = lim.exceeded("pixels", det.nx * det.ny)
+                if over:
+                    raise error(det.span, f"DETECTOR of object {obj.name}: {over}", lim.hint("pixels"))
+                over = lim.exceeded("pixels", det.nx * det.ny * planes)
+                if over:
+                    raise error(det.span, f"DETECTOR of object {obj.name}: its {planes} images (one per "
+                                f"{'filter' if det.filters else 'line'}) hold {over}", lim.hint("pixels"))
+        total, biggest = 0, None
+        for src in st.sources:
+            n = source_rays(src)
+            total += n
+            if biggest is None or n > biggest[0]:
+                biggest = (n, src)
+        total *= len(st.wavelengths_nm)
+        over = lim.exceeded("rays", total)
+        if over:
+            notes = [(biggest[1].span, f"this source sends {biggest[0]:,} rays per line")] if biggest else []
+            raise error(span, f"this TRACE would trace {over} (sources x {len(st.wavelengths_nm)} wavelength "
+                        "lines)", lim.hint("rays"), notes=notes)
 
     def current_group(self) -> str | None:
         return self.state.group_stack[-1] if self.state.group_stack else None
@@ -371,17 +522,21 @@ class Interpreter(BindContext):
 
     # ------------------------------------------------------------ INCLUDE and CALL
     def include(self, rel: str, span: Span) -> None:
-        p = self.input_path(rel, span).resolve()
+        if Path(rel).suffix.lower() not in SCRIPT_SUFFIXES:
+            raise error(span, f"INCLUDE reads irtlang scripts (*.inr); '{rel}' is not one",
+                        "a data file is read by the command that uses it (MEDIUM ... TABLE, MAP, LOAD RAYS, ...)")
+        p = self.input_path(rel, span, limit="script").resolve()
         if p in self.include_stack:
             chain = " -> ".join(x.name for x in self.include_stack + [p])
             raise error(span, f"recursive INCLUDE: {chain}")
         if len(self.include_stack) > MAX_CALL_DEPTH:
             raise error(span, "INCLUDE nested too deeply")
         try:
-            src = read_source(p, display_name=_display(p))
+            src = read_source(p, display_name=_display(p), max_bytes=self.limits["script"])
         except IrtError as e:  # a file-level problem (not text, unreadable) is reported at the INCLUDE
             raise IrtError([replace(d, span=span) if d.span.line <= 0 else d for d in e.diagnostics]) from None
         self.sources.append(src)
+        check_source_size(src, self.limits)
         prog = parse_source(src, self.is_macro_head)
         self.include_stack.append(p)
         try:
@@ -417,6 +572,97 @@ class Interpreter(BindContext):
             self.macro_stack.pop()
 
 
+SCRIPT_SUFFIXES = (".inr",)
+PATH_ENV = "IRT_PATH"
+
+
+def search_path() -> list[str]:
+    """The folders of IRT_PATH (os.pathsep separated), searched after the script's own folder."""
+    import os
+
+    return [d for d in os.environ.get(PATH_ENV, "").split(os.pathsep) if d]
+
+
+def find_input(rel: str, base: Path) -> Path | None:
+    """An input's path: absolute as given; relative: in `base` (the naming script's folder), then in IRT_PATH."""
+    if "\0" in rel:
+        return None
+    p = Path(rel)
+    if p.is_absolute():
+        return p if p.exists() else None
+    for d in [base] + [Path(x) for x in search_path()]:
+        q = d / p
+        try:
+            if q.exists():
+                return q
+        except OSError:     # a name too long for the file system
+            return None
+    return None
+
+
+def output_problem(rel: str, allow_outside: bool = False) -> str | None:
+    """Why an output name cannot be used (None when it can): empty, control characters, too long, or (unless
+    allowed) an absolute path or a '..' that leaves the run folder."""
+    import os
+    import posixpath
+
+    if not rel.strip():
+        return "an output file needs a name"
+    if any(ord(c) < 32 or ord(c) == 127 for c in rel):
+        return "an output file name cannot contain control characters"
+    if len(rel) > 1024 or any(len(part) > 255 for part in rel.replace("\\", "/").split("/")):
+        return "an output file name is too long (at most 255 characters a part, 1024 in all)"
+    if rel.endswith(("/", "\\")) or posixpath.basename(rel) in (".", ".."):
+        return f"output '{rel}' names a folder, not a file"
+    if allow_outside:
+        return None
+    if os.path.isabs(rel) or rel.startswith(("/", "\\", "~")) or (len(rel) > 1 and rel[1] == ":"):
+        return f"output '{rel}' is an absolute path: outputs stay inside the run folder"
+    depth = 0
+    for part in rel.replace("\\", "/").split("/"):
+        if part == "..":
+            depth -= 1
+            if depth < 0:
+                return f"output '{rel}' leaves the run folder ('..')"
+        elif part not in ("", "."):
+            depth += 1
+    return None
+
+
+def _normal(name: str) -> str:
+    """An output name as the run folder stores it ('./a//b.h5' and 'a/b.h5' are one file)."""
+    import posixpath
+
+    return posixpath.normpath(name.replace("\\", "/"))
+
+
+def source_rays(src) -> int:
+    """Rays a source sends per wavelength line (as irtlang.compile.pack counts them; a regular GRID DISK's
+    lattice may hold a few more or fewer)."""
+    p = src.params
+    if src.kind.startswith("GRID"):
+        g = p["grid"]
+        if src.kind.startswith("GRID RECT"):
+            return int(g["nx"]) * int(g["ny"])
+        return int(g["rays"])
+    return int(p.get("rays", 1))
+
+
+def check_source_size(src: Source, limits: Limits) -> None:
+    """A script's size and its longest line against the limits `script` and `statement`."""
+    over = limits.exceeded("script", len(src.text.encode("utf-8", "surrogatepass")))
+    if over:
+        raise error(Span(src, 0, 0, 0, 0), f"{src.name} is too large: {over}", limits.hint("script"))
+    lim = limits["statement"]
+    if len(src.text) > lim:
+        start = 0
+        for n, line in enumerate(src.text.split("\n"), 1):
+            if len(line) > lim:
+                raise error(Span(src, n, 1, n, 2), f"line {n} is too long: "
+                            f"{limits.exceeded('statement', len(line))}", limits.hint("statement"))
+            start += len(line) + 1
+
+
 def _display(p: Path) -> str:
     try:
         return str(p.relative_to(Path.cwd()))
@@ -424,9 +670,9 @@ def _display(p: Path) -> str:
         return str(p)
 
 
-def check_file(path: str | Path, presets=()) -> Interpreter:
+def check_file(path: str | Path, presets=(), *, limits: Limits | None = None, allow_outside: bool = False) -> Interpreter:
     """Parse and validate a script; raise IrtError with every diagnostic if it has any."""
-    it = Interpreter(check_only=True)
+    it = Interpreter(check_only=True, limits=limits, allow_outside=allow_outside)
     it.preset(presets)
     it.run_file(path)
     if it.diags:

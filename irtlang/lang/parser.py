@@ -361,8 +361,13 @@ def _unknown_unit(span: Span, word: str):
 
 # ---------------------------------------------------------------- blocks
 def _check_text(data: bytes, name: str) -> str:
-    if b"\x00" in data[:65536]:
-        raise error(Span(Source(name, ""), 0, 0, 0, 0), f"{name} is not a text file (it contains NUL bytes)")
+    nul = data.find(b"\x00")
+    if nul >= 0:   # reported where it is (line:col), so that a stray NUL in a script can be found
+        text = data[:nul].decode("utf-8-sig", "replace")
+        line = text.count("\n") + 1
+        col = len(text) - (text.rfind("\n") + 1) + 1
+        src = Source(name, text)     # the text up to the NUL: what follows it is not shown
+        raise error(Span(src, line, col, line, col + 1), f"a NUL byte (\\0) here: {name} is not a text script")
     try:
         return data.decode("utf-8-sig")
     except UnicodeDecodeError as e:
@@ -374,13 +379,21 @@ def _check_text(data: bytes, name: str) -> str:
                     f"{name} is not a UTF-8 text file (byte 0x{data[e.start]:02x} at offset {e.start})") from None
 
 
-def read_source(path: str | Path, display_name: str | None = None) -> Source:
+def read_source(path: str | Path, display_name: str | None = None, max_bytes: float | None = None) -> Source:
+    """A script's text; with max_bytes, a larger file (or an endless one, /dev/zero) is an error, read no further."""
     p = Path(path)
     name = display_name or str(path)
     try:
-        data = p.read_bytes()
-    except OSError as e:
-        raise error(Span(Source(name, ""), 0, 0, 0, 0), f"cannot read {name}: {e.strerror or e}") from None
+        with open(p, "rb") as f:
+            data = f.read(int(max_bytes) + 1) if max_bytes is not None else f.read()
+    except (OSError, ValueError) as e:
+        raise error(Span(Source(name, ""), 0, 0, 0, 0),
+                    f"cannot read {name}: {getattr(e, 'strerror', None) or e}") from None
+    if max_bytes is not None and len(data) > max_bytes:
+        from ..limits import show
+
+        raise error(Span(Source(name, ""), 0, 0, 0, 0), f"{name} is larger than the limit script="
+                    f"{show('script', max_bytes)}", "raise it with `irt run FILE --limit script=VALUE`")
     return Source(name, _check_text(data, name))
 
 

@@ -495,6 +495,8 @@ def _take_list(p: Param, cur: _Cursor, ctx, stop_kws: list, where: str):
             isinstance(r[0], A.Num) and r[0].unit is None for r in raw[:-1]):
         trailing = raw[-1][0].unit
     vals, spans = [], []
+    if trailing is not None:  # a wrong unit is reported at the number that carries it (SHIFT 1 2 5 deg: the 5)
+        _convert(p, raw[-1][0], ctx, where)
     for it, count in raw:
         if trailing is not None and isinstance(it, A.Num) and it.unit is None:
             it = A.Num(it.value, trailing, it.text, it.span)

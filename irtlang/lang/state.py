@@ -49,6 +49,7 @@ class State:
     placed_trace: dict = field(default_factory=dict)   # group key -> the value of traces when it was placed
     first_per_line: Span | None = None         # first wavelength-dependent definition
     failed: set = field(default_factory=set)   # (namespace, key) of definitions that failed
+    source_failed: bool = False                # a GRID, SOURCE or EMITTING failed (no follow-on errors)
 
     def scene(self) -> M.Scene:
         fp = M.frozen_params

@@ -437,9 +437,9 @@ def test_a_syntax_error_inside_an_included_file(tmp_path):
 def test_include_of_a_file_with_nul_bytes(tmp_path):
     (tmp_path / "main.inr").write_text("x = 1\nINCLUDE 'bin.inr'\n")
     (tmp_path / "bin.inr").write_bytes(b"PRINT 1\n\x00\x01\x02binary")
-    (d,) = diagnose_file(tmp_path / "main.inr")
-    assert d.span.file.endswith("main.inr") and (d.span.line, d.span.col) == (2, 9)
-    assert d.message.endswith("bin.inr is not a text file (it contains NUL bytes)")
+    (d,) = diagnose_file(tmp_path / "main.inr")   # issue 21: the NUL is reported where it is, line and column
+    assert d.span.file.endswith("bin.inr") and (d.span.line, d.span.col) == (2, 1)
+    assert d.message.endswith("bin.inr is not a text script") and "binary" not in d.render()
 
 
 def test_include_of_a_file_that_is_not_utf8(tmp_path):
@@ -454,7 +454,7 @@ def test_a_script_with_nul_bytes(tmp_path):
     p = tmp_path / "bin.inr"
     p.write_bytes(b"\x00\x00\x00")
     (d,) = diagnose_file(p)
-    assert d.render() == f"{p}: error: {p} is not a text file (it contains NUL bytes)"
+    assert d.render().startswith(f"{p}:1:1: error: a NUL byte (\\0) here: {p} is not a text script")
 
 
 def test_missing_mesh_file(tmp_path):

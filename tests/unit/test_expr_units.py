@@ -295,7 +295,8 @@ def test_trailing_unit_of_a_list():
 
 def test_trailing_unit_of_the_wrong_kind():
     d = err("SURFACE\n  PLANE Z 0\nOBJECT a\n  SHIFT 1 2 3 deg")
-    assert (d.span.line, d.span.col, d.message) == (4, 9, "expected a length, got 1 deg")
+    # issue 21: the error points at the number that carries the wrong unit
+    assert (d.span.line, d.span.col, d.message) == (4, 13, "expected a length, got 3 deg")
 
 
 # ---------------------------------------------------------------- keyword abbreviations

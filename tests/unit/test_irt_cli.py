@@ -96,7 +96,9 @@ def test_check_a_file_with_nul_bytes(scripts):
     (scripts / "bin.inr").write_bytes(b"PRINT 1\n\x00\xff\x00\x12binary junk")
     r = irt("check", "bin.inr", cwd=scripts)
     assert r.returncode == 2
-    assert r.stderr == "bin.inr: error: bin.inr is not a text file (it contains NUL bytes)\n1 error\n"
+    # issue 21: the NUL is reported at its line and column; nothing after it is shown
+    assert r.stderr == ("bin.inr:2:1: error: a NUL byte (\\0) here: bin.inr is not a text script\n"
+                        "    2 | \n      | ^\n1 error\n")
 
 
 def test_check_a_file_that_is_not_utf8(scripts):
@@ -114,7 +116,8 @@ def test_check_an_include_of_a_binary_file(scripts):
     (scripts / "inc.inr").write_text("x = 1\nINCLUDE 'bin.dat'\n")
     r = irt("check", "inc.inr", cwd=scripts)
     assert r.returncode == 2
-    assert r.stderr.splitlines()[0] == "inc.inr:2:9: error: bin.dat is not a text file (it contains NUL bytes)"
+    # issue 21: INCLUDE reads scripts only, and never quotes another kind of file
+    assert r.stderr.splitlines()[0] == "inc.inr:2:9: error: INCLUDE reads irtlang scripts (*.inr); 'bin.dat' is not one"
 
 
 @pytest.mark.parametrize("where", ["before", "after"])

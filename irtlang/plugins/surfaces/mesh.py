@@ -25,7 +25,9 @@ def build(b, ctx) -> Surface:
 
         mesh = trimesh.load(str(path), force="mesh", process=True)
     except Exception as e:  # trimesh raises many kinds on a broken file
-        raise error(b.span_of("file"), f"cannot read mesh '{b['file']}': {e}") from None
+        # the reader's own message is not shown: it may quote what the file holds (issue 21)
+        raise error(b.span_of("file"), f"cannot read mesh '{b['file']}': not a mesh file trimesh can read "
+                    f"({type(e).__name__})", "STL, OBJ, PLY, OFF, GLB, ...") from None
     if mesh is None or len(getattr(mesh, "faces", ())) == 0:
         raise error(b.span_of("file"), f"mesh '{b['file']}' has no triangles")
     scale = b.get("scale", 1.0) * ctx.length_factor()
