@@ -417,7 +417,15 @@ class Interpreter(BindContext):
 
     # ------------------------------------------------------------ INCLUDE and CALL
     def include(self, rel: str, span: Span) -> None:
-        p = self.input_path(rel, span).resolve()
+        try:
+            p = self.input_path(rel, span).resolve()
+        except IrtError:   # not next to the including script: the search path ($IRT_PATH, installed examples)
+            from ..library import find_include
+
+            found = find_include(rel)
+            if found is None:
+                raise
+            p = found.resolve()
         if p in self.include_stack:
             chain = " -> ".join(x.name for x in self.include_stack + [p])
             raise error(span, f"recursive INCLUDE: {chain}")
