@@ -64,9 +64,7 @@ def _card(key: str, value, comment: str = "") -> bytes:
     elif isinstance(value, (int, np.integer)):
         v = f"{int(value):>20}"
     elif isinstance(value, (float, np.floating)):
-        v = f"{float(value):>20.14G}"
-        if not any(c in v for c in ".EN"):   # a float keeps a decimal point (FITS reads it back as a float)
-            v = f"{float(value):>20.1f}"
+        v = f"{repr(float(value)).upper():>20}"   # the shortest text that reads back to the same double
     else:
         text = "".join(c if 32 <= ord(c) < 127 else "?" for c in str(value))[:68].replace("'", "''")[:68]
         v = f"'{text:<8}'"
