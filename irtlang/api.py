@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -108,7 +109,8 @@ def execute(script: Script, *, presets=(), seed: int | None = None, out: Path | 
     if progress is not None and hasattr(progress, "frames"):
         progress.frames = sum(1 for s in checked.steps if s.kind == "TRACE")
     engine = Engine(folder, records=records, history=history, runner=runner, progress=progress, out=echo)
-    engine.collector = ResultsCollector()
+    spill = Path(tempfile.mkdtemp(prefix=".irt-results-", dir=folder.root))   # images wait here for results.nc
+    engine.collector = ResultsCollector(spill)
     engine.seed = None if seed is None else int(seed)
     it = Interpreter(engine=engine, out=echo)
     status, error = "complete", None
@@ -130,24 +132,26 @@ def execute(script: Script, *, presets=(), seed: int | None = None, out: Path | 
     except KeyboardInterrupt as e:
         status, error = "interrupted", e
     except Exception as e:  # keep what was written, then report the internal error
+        shutil.rmtree(spill, ignore_errors=True)
         if type(e).__name__ == "ClusterError":   # irtlang.cluster: the cluster failed, not irtlang
             folder.write_manifest(f"failed: {e}")
         else:
             folder.write_manifest(f"internal error: {type(e).__name__}: {e}")
         raise
-    ds = _write_results(folder, engine.collector)
+    try:
+        _write_results(folder, engine.collector)
+    finally:
+        shutil.rmtree(spill, ignore_errors=True)
     man = folder.write_manifest(status)
-    return Execution(folder, it, status, error, ds, man)
+    return Execution(folder, it, status, error, None, man)
 
 
 def _write_results(folder, collector):
     """results.nc: every image, spectrum and ledger of the run (irtlang/io/results.py)."""
-    from .io.results import build_dataset, write_results
+    from .io.results import write_results
 
-    ds = build_dataset(collector, folder.info)
-    p = write_results(ds, folder.root / RESULTS_FILE)
+    p = write_results(collector, folder.info, folder.root / RESULTS_FILE)
     folder.record(p, "results")
-    return ds
 
 
 # ---------------------------------------------------------------------------------------------- public
@@ -176,12 +180,11 @@ class RunResult:
 
     @property
     def dataset(self):
-        """The run's xarray Dataset (what results.nc holds)."""
+        """The run's xarray Dataset: results.nc, opened lazily (values are read when used; .load() reads all)."""
         if self._dataset is None:
             import xarray as xr
 
-            with xr.open_dataset(self.folder / RESULTS_FILE) as ds:
-                self._dataset = ds.load()
+            self._dataset = xr.open_dataset(self.folder / RESULTS_FILE)
         return self._dataset
 
 

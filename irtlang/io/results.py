@@ -32,13 +32,19 @@ LEDGER_COLUMNS = ("incident_W", "reflected_W", "transmitted_W", "scattered_W", "
 
 @dataclass
 class _Slice:
-    """One 2-D image of one frame: a line, a filter band, or the whole image (SPOTS, PSF)."""
+    """One 2-D image of one frame: a line, a filter band, or the whole image (SPOTS, PSF).  With a spill folder
+    the pixels wait on disk (spill: a .npy of [image] or [image, stderr]) so memory stays flat over frames."""
     key: tuple
     frame: int
     label: object          # wavelength (nm), band name, or None
-    img: np.ndarray
-    se: np.ndarray | None
+    data: np.ndarray | None
+    has_se: bool
     file: str
+    spill: Path | None = None
+
+    def arrays(self):
+        a = np.load(self.spill) if self.spill is not None else self.data
+        return a[0], (a[1] if self.has_se else None)
 
 
 @dataclass
@@ -56,7 +62,9 @@ class _Group:
 class ResultsCollector:
     """What the engine reports while a run goes; ``build_dataset`` turns it into a Dataset."""
 
-    def __init__(self):
+    def __init__(self, spill_dir: Path | None = None):
+        self.spill_dir = None if spill_dir is None else Path(spill_dir)
+        self._n = 0
         self.frames: list[dict] = []          # one per TRACE: {"epoch": str | None, "rays": int}
         self.groups: dict[tuple, _Group] = {}
         self.spectra: list[tuple] = []        # (frame, object, lines_nm, flux, stderr, file)
@@ -85,7 +93,15 @@ class ResultsCollector:
         if bands is not None and band_nm is not None:
             g.band_nm.update(zip(bands, map(float, band_nm)))
         for k, lab in enumerate(labels):
-            g.slices.append(_Slice(key, max(self.frame, 0), lab, img[k], None if se is None else se[k], file))
+            data = np.stack([img[k]] + ([se[k]] if se is not None else []))
+            sl = _Slice(key, max(self.frame, 0), lab, data, se is not None, file)
+            if self.spill_dir is not None:
+                self.spill_dir.mkdir(parents=True, exist_ok=True)
+                sl.spill = self.spill_dir / f"{self._n}.npy"
+                self._n += 1
+                np.save(sl.spill, data)
+                sl.data = None
+            g.slices.append(sl)
 
     def add_spectrum(self, name, lines_nm, flux, se, file="") -> None:
         self.spectra.append((max(self.frame, 0), name, tuple(map(float, lines_nm)), np.asarray(flux, float),
@@ -122,10 +138,13 @@ def _times(epochs):
         return None
 
 
-def build_dataset(col: ResultsCollector, info: dict):
-    """The Dataset of a run (see the module docstring); info: the manifest's provenance (RunFolder.info)."""
+def build_dataset(col: ResultsCollector, info: dict, *, images: bool = True):
+    """The Dataset of a run (see the module docstring); info: the manifest's provenance (RunFolder.info).
+    images=False leaves the image variables out (their coordinates stay) and returns (Dataset, [their layout])
+    for ``write_results``, which writes them one 2-D slice at a time."""
     import xarray as xr
 
+    pending = []
     names = _Names()
     names.used |= {"time", "frame", "wavelength", "band", "band_wavelength", "rays_per_frame", "ledger_row",
                    "ledger_column"}
@@ -204,7 +223,7 @@ def build_dataset(col: ResultsCollector, info: dict):
                     coords[f"{dim}_wavelength"] = (dim, np.array([g.band_nm[b] for b in labels]), {
                         "units": "nm", "long_name": "band centre: the filter's transmission-weighted mean line"})
                 sdims = (dim,)
-            ny, nx = slices[0].img.shape
+            ny, nx = g.key[3]
             x0, x1, y0, y1 = g.extent_mm
             xs = x0 + (np.arange(nx) + 0.5) * (x1 - x0) / nx
             ys = y0 + (np.arange(ny) + 0.5) * (y1 - y0) / ny
@@ -220,25 +239,32 @@ def build_dataset(col: ResultsCollector, info: dict):
                     "units": "arcsec", "long_name": "field angle atan(y / focal length)",
                     "focal_length_mm": g.focal_m * 1e3})
             shape = tuple(len(frames) for _ in fdims) + tuple(len(labels) for _ in sdims) + (ny, nx)
-            arr = np.zeros(shape)
-            err = np.zeros(shape) if all(s.se is not None for s in slices) else None
+            with_err = all(s.has_se for s in slices)
             fi, li = {f: i for i, f in enumerate(frames)}, {lab: i for i, lab in enumerate(labels)}
-            for s in slices:
-                idx = ((fi[s.frame],) if fdims else ()) + ((li[s.label],) if sdims else ())
-                arr[idx] = s.img
-                if err is not None:
-                    err[idx] = s.se
+            cells = [(((fi[s.frame],) if fdims else ()) + ((li[s.label],) if sdims else ()), s) for s in slices]
             dims = fdims + sdims + (yd, xd)
             files = sorted({s.file for s in slices if s.file})
             attrs = {"units": "W", "long_name": f"{g.kind} of {g.name}: flux per pixel",
                      "irtlang_kind": g.kind, "irtlang_object": g.name}
             if files:
                 attrs["irtlang_files"] = " ".join(files)
-            if err is not None:
+            eattrs = {"units": "W", "long_name": f"Monte Carlo standard error of {var}"}
+            if with_err:
                 attrs["ancillary_variables"] = f"{var}_stderr"
-                data_vars[f"{var}_stderr"] = (dims, err, {
-                    "units": "W", "long_name": f"Monte Carlo standard error of {var}"})
                 names.used.add(f"{var}_stderr")
+            if not images:
+                pending.append({"var": var, "dims": dims, "shape": shape, "attrs": attrs, "err_attrs": eattrs,
+                                "err": with_err, "cells": cells})
+                continue
+            arr = np.zeros(shape)
+            err = np.zeros(shape) if with_err else None
+            for idx, s in cells:
+                a, e = s.arrays()
+                arr[idx] = a
+                if err is not None:
+                    err[idx] = e
+            if err is not None:
+                data_vars[f"{var}_stderr"] = (dims, err, eattrs)
             data_vars[var] = (dims, arr, attrs)
 
     # ---------------------------------------------------------------- spectra
@@ -298,7 +324,7 @@ def build_dataset(col: ResultsCollector, info: dict):
                                            {"units": "1", "long_name": "source rays traced in the frame"})
     ds = xr.Dataset(data_vars, coords={k: v for k, v in coords.items()})
     ds.attrs.update(global_attrs(info))
-    return ds
+    return ds if images else (ds, pending)
 
 
 def _time_attrs():
@@ -318,8 +344,13 @@ def global_attrs(info: dict) -> dict:
     return a
 
 
-def write_results(ds, path: Path) -> Path:
-    """Write the Dataset as NetCDF4 (atomically): times as hours since the first frame."""
+def write_results(col: ResultsCollector, info: dict, path: Path) -> Path:
+    """Write the run's results as NetCDF4 (atomically): xarray writes the coordinates, spectra and ledgers,
+    then the images go in one 2-D slice at a time (compressed, chunked per slice), so memory stays flat in
+    the number of frames.  Times are hours since the first frame."""
+    import netCDF4
+
+    ds, pending = build_dataset(col, info, images=False)
     enc = {}
     for name in list(ds.coords):
         if np.issubdtype(ds[name].dtype, np.datetime64):
@@ -331,4 +362,19 @@ def write_results(ds, path: Path) -> Path:
     path = Path(path)
     with atomic_path(path) as tmp:
         ds.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=enc)
+        with netCDF4.Dataset(tmp, "a") as nc:
+            for spec in pending:
+                chunks = (1,) * (len(spec["shape"]) - 2) + tuple(spec["shape"][-2:])
+                names = [spec["var"]] + ([spec["var"] + "_stderr"] if spec["err"] else [])
+                v = {}
+                for k, n in enumerate(names):
+                    v[n] = nc.createVariable(n, "f8", spec["dims"], zlib=True, complevel=4, chunksizes=chunks,
+                                             fill_value=False)
+                    v[n].setncatts(spec["attrs"] if k == 0 else spec["err_attrs"])
+                for idx, s in spec["cells"]:
+                    a, e = s.arrays()
+                    at = tuple(idx) + (slice(None), slice(None))
+                    v[names[0]][at] = a
+                    if spec["err"]:
+                        v[names[1]][at] = e
     return path
