@@ -309,8 +309,11 @@ def test_progress_only_on_a_terminal_or_when_asked(capsys):
     q = p.start(1000)
     for k in range(0, 1001, 250):
         q.update(k)
+    q.update(1000, force=True)     # as the tracer ends a TRACE
     q.close()
     assert p.frame == 1
+    # not a terminal but asked for (--progress into a log): plain lines, frame k of n, rays, rate, time left
+    assert re.search(r"irt: frame 1/3: 1,000/1,000 rays, [0-9.]+ Mrays/s, 0 s left", buf.getvalue()), buf.getvalue()
     off = RunProgress(enabled=False)
     off.start(10).update(5)
     off.close()
