@@ -313,15 +313,13 @@ def build_dataset(col: ResultsCollector, info: dict, *, images: bool = True):
         data_vars[f"{var}_incident_stderr"] = ((rdim,), se, {
             "units": "W", "long_name": "Monte Carlo standard error of the incident flux (objects; 0 for sinks)"})
 
-    if nF:
+    if nF > 1:   # the run's frame axis, and the rays of each frame
         dim = "time" if times is not None else "frame"
-        if nF > 1 or dim not in coords:
-            coords.setdefault("frame", (dim, np.arange(nF), {"long_name": "frame (TRACE number, from 0)"}))
-            if times is not None:
-                coords.setdefault("time", (dim, times, _time_attrs()))
-        if nF > 1:
-            data_vars["rays_per_frame"] = (dim, np.array([f["rays"] for f in col.frames]),
-                                           {"units": "1", "long_name": "source rays traced in the frame"})
+        coords.setdefault("frame", (dim, np.arange(nF), {"long_name": "frame (TRACE number, from 0)"}))
+        if times is not None:
+            coords.setdefault("time", (dim, times, _time_attrs()))
+        data_vars["rays_per_frame"] = (dim, np.array([f["rays"] for f in col.frames]),
+                                       {"units": "1", "long_name": "source rays traced in the frame"})
     ds = xr.Dataset(data_vars, coords={k: v for k, v in coords.items()})
     ds.attrs.update(global_attrs(info))
     return ds if images else (ds, pending)
