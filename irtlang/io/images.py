@@ -105,9 +105,10 @@ def _wcs_cards(shape, extent, wavelengths_nm, length_unit, bands, focal_length_m
         x0, x1, y0, y1 = map(float, extent)
         dx, dy = (x1 - x0) / nx, (y1 - y0) / ny
         cx, cy = x0 + dx / 2, y0 + dy / 2
-        cards += [_card("CTYPE1", "DETX", "detector-plane local x"), _card("CUNIT1", length_unit),
+        unit = [] if " " in length_unit else [length_unit]   # no CUNIT for direction cosines
+        cards += [_card("CTYPE1", "DETX", "detector-plane local x")] + [_card("CUNIT1", u) for u in unit] + [
                   _card("CRPIX1", 1.0), _card("CRVAL1", cx, "pixel 1 centre"), _card("CDELT1", dx),
-                  _card("CTYPE2", "DETY", "detector-plane local y"), _card("CUNIT2", length_unit),
+                  _card("CTYPE2", "DETY", "detector-plane local y")] + [_card("CUNIT2", u) for u in unit] + [
                   _card("CRPIX2", 1.0), _card("CRVAL2", cy, "pixel 1 centre"), _card("CDELT2", dy)]
     cards += [_card(k, v, c) for k, v, c in axis3]
     if extent is not None:
