@@ -419,12 +419,15 @@ class Interpreter(BindContext):
     def include(self, rel: str, span: Span) -> None:
         try:
             p = self.input_path(rel, span).resolve()
-        except IrtError:   # not next to the including script: the search path ($IRT_PATH, installed examples)
+        except IrtError as e:   # not next to the including script: the search path ($IRT_PATH, installed examples)
             from ..library import find_include
 
             found = find_include(rel)
             if found is None:
-                raise
+                if not e.diagnostics[0].message.startswith("file not found"):
+                    raise
+                raise error(span, f"{e.diagnostics[0].message}, nor on the INCLUDE search path",
+                            "the search path is $IRT_PATH, then the installed examples (irt examples)") from None
             p = found.resolve()
         if p in self.include_stack:
             chain = " -> ".join(x.name for x in self.include_stack + [p])

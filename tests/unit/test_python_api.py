@@ -73,6 +73,8 @@ def test_api_writes_what_the_cli_writes(runs):
     for k in ("seed", "script_sha256", "rays_traced", "data_tier", "status"):
         assert cli[k] == api[k]
     assert api["seed"] == 11 and api["seed_from"] == "--seed" and api["status"] == "complete"
+    for folder in (runs.d / "cli", runs.d / "api"):   # the images' spill folder is gone
+        assert not [q for q in folder.iterdir() if q.name.startswith(".irt-results-")]
 
 
 def test_seed_override_equals_the_script_seed(runs):
@@ -267,7 +269,8 @@ def test_include_finds_the_installed_examples(tmp_path, monkeypatch):
     (tmp_path / "lib" / "mylib.inr").write_text("answer = 42\n")
     (tmp_path / "use.inr").write_text("INCLUDE 'mylib.inr'\nPRINT '{answer}'\n")
     d = irtlang.check(tmp_path / "use.inr")
-    assert d and "file not found" in d[0].message
+    assert d and "file not found" in d[0].message and "INCLUDE search path" in d[0].message
+    assert "$IRT_PATH" in d[0].render()
     monkeypatch.setenv("IRT_PATH", str(tmp_path / "lib"))
     assert irtlang.check(tmp_path / "use.inr") == []
 
