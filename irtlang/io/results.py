@@ -41,6 +41,7 @@ class _Slice:
     has_se: bool
     file: str
     spill: Path | None = None
+    also: list = field(default_factory=list)   # other files of the same image (EXPORT fpa 'a.fits', 'a.png')
 
     def arrays(self):
         a = np.load(self.spill) if self.spill is not None else self.data
@@ -92,9 +93,14 @@ class ResultsCollector:
                   else [None] * img.shape[0])
         if bands is not None and band_nm is not None:
             g.band_nm.update(zip(bands, map(float, band_nm)))
+        frame = max(self.frame, 0)
         for k, lab in enumerate(labels):
             data = np.stack([img[k]] + ([se[k]] if se is not None else []))
-            sl = _Slice(key, max(self.frame, 0), lab, data, se is not None, file)
+            same = [s for s in g.slices if s.frame == frame and s.label == lab and s.has_se == (se is not None)]
+            if same and np.array_equal(np.stack([a for a in same[0].arrays() if a is not None]), data):
+                same[0].also.append(file)     # the same image again under another name: stored once
+                continue
+            sl = _Slice(key, frame, lab, data, se is not None, file)
             if self.spill_dir is not None:
                 self.spill_dir.mkdir(parents=True, exist_ok=True)
                 sl.spill = self.spill_dir / f"{self._n}.npy"
@@ -243,7 +249,7 @@ def build_dataset(col: ResultsCollector, info: dict, *, images: bool = True):
             fi, li = {f: i for i, f in enumerate(frames)}, {lab: i for i, lab in enumerate(labels)}
             cells = [(((fi[s.frame],) if fdims else ()) + ((li[s.label],) if sdims else ()), s) for s in slices]
             dims = fdims + sdims + (yd, xd)
-            files = sorted({s.file for s in slices if s.file})
+            files = sorted({f for s in slices for f in [s.file, *s.also] if f})
             attrs = {"units": "W", "long_name": f"{g.kind} of {g.name}: flux per pixel",
                      "irtlang_kind": g.kind, "irtlang_object": g.name}
             if files:

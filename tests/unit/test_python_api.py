@@ -97,6 +97,7 @@ def test_results_nc_is_cf_with_units_errors_and_provenance(runs):
         img, man = ds["image_fpa"], runs.res.manifest
         assert img.dims == ("wavelength", "y_image_fpa", "x_image_fpa") and img.attrs["units"] == "W"
         np.testing.assert_array_equal(img.values, np.load(runs.res.files["fpa.npy"]))
+        assert img.attrs["irtlang_files"] == "fpa.fits fpa.npy" and "image_fpa_2" not in ds   # stored once
         se = ds[img.attrs["ancillary_variables"]]
         np.testing.assert_array_equal(se.values, np.load(runs.res.files["fpa.stderr.npy"]))
         assert se.attrs["units"] == "W"
