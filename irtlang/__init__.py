@@ -13,11 +13,11 @@ diagnostics.  They are imported on first use, so ``import irtlang`` stays cheap.
 """
 from ._version import __version__
 
-__all__ = ["__version__", "run", "check", "RunResult", "RunError"]
+__all__ = ["__version__", "run", "check", "RunResult", "RunError", "IrtError"]
 
 
 def __getattr__(name):
-    if name in ("run", "check", "RunResult", "RunError"):
+    if name in ("run", "check", "RunResult", "RunError", "IrtError"):
         from . import api
 
         return getattr(api, name)

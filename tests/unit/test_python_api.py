@@ -220,6 +220,7 @@ def test_check_returns_diagnostic_objects(tmp_path):
 def test_run_reports_input_errors_and_failures(tmp_path):
     from irtlang.lang.diagnostics import IrtError
 
+    assert irtlang.IrtError is IrtError
     with pytest.raises(IrtError) as e:
         irtlang.run("UNITS MM\nTRACE\n", out=tmp_path / "o1")
     assert "TRACE has no source" in str(e.value.render())
