@@ -42,6 +42,12 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     r.add_argument("--out", help="output folder (default irt-out/<script name>/)")
     r.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="set a variable before the script runs (the script's DEFAULT NAME VALUE keeps it); repeatable")
+    r.add_argument("--seed", type=_seed, metavar="N",
+                   help="random seed for every TRACE, in place of the script's SEED (recorded in the manifest)")
+    pq = r.add_mutually_exclusive_group()
+    pq.add_argument("--quiet", action="store_true", help="no progress display")
+    pq.add_argument("--progress", action="store_true",
+                    help="show the progress display even when the output is not a terminal")
     g = r.add_mutually_exclusive_group()   # docs/cluster.md
     g.add_argument("--scheduler", metavar="ADDRESS", help="trace on the Dask cluster of this scheduler (tcp://host:8786)")
     g.add_argument("--workers", type=int, metavar="N", help="trace on a local Dask cluster of N worker processes")
@@ -63,6 +69,11 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
 
     sub.add_parser("repl", help="interactive session")
 
+    e = sub.add_parser("examples", help="list the example scripts installed with irtlang, or copy them")
+    e.add_argument("names", nargs="*", help="examples to copy (default: all of them, with their includes and data)")
+    e.add_argument("--copy", metavar="DIR", help="copy the examples into DIR (created if needed)")
+    e.add_argument("--force", action="store_true", help="overwrite files that already exist in DIR")
+
     a = sub.add_parser("analyze", help="analyses of saved images, spectra and ray files")
     if _wants_analysis(argv):
         from .core.hooks import analysis_provider
@@ -71,6 +82,17 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
         if acli is not None and hasattr(acli, "build_parser"):
             acli.build_parser(a.add_subparsers(dest="analysis_cmd", metavar="ANALYSIS"))
     return p
+
+
+def _seed(text: str) -> int:
+    """--seed N: an integer in [0, 2^63), as SEED (the counter-based generator's key)."""
+    try:
+        n = int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if not 0 <= n < 2 ** 63:
+        raise argparse.ArgumentTypeError(f"must be in [0, 2^63), got {text}")
+    return n
 
 
 def _safety_options(p) -> None:
@@ -100,6 +122,8 @@ def main(argv: list[str] | None = None) -> int:
             return cmd_check(args)
         if args.cmd == "fmt":
             return cmd_fmt(args)
+        if args.cmd == "examples":
+            return cmd_examples(args)
         if args.cmd == "repl":
             from .repl import main as repl_main
 
@@ -145,22 +169,10 @@ def _print_diags(e) -> None:
 
 def _load_check(path: str, presets=(), args=None):
     """Check a script; returns the interpreter, or raises IrtError with every diagnostic."""
-    from .core.diagnostics import Diagnostic, IrtError, Source, Span
-    from .engine import check_trace_memory
-    from .lang.interp import check_file
+    from .api import Script, load_check
 
-    p = Path(path)
-    at = Span(Source(str(path), ""), 0, 0, 0, 0)  # renders as "PATH: error: ..." (not "<input>")
-    if "\0" in str(path) or not p.exists():
-        raise IrtError(Diagnostic(at, f"no such file: {path!r}" if "\0" in str(path) else f"no such file: {path}"))
-    if p.is_dir():
-        raise IrtError(Diagnostic(at, f"{path} is a folder, not a script"))
-    limits = _limits(args)
-    it = check_file(p, presets, limits=limits, allow_outside=bool(getattr(args, "allow_outside", False)))
-    diags = check_trace_memory(it.steps, limits)   # needs every step of the script: which records are kept
-    if diags:
-        raise IrtError(diags)
-    return it
+    return load_check(Script(Path(path)), presets, limits=_limits(args),
+                      allow_outside=bool(getattr(args, "allow_outside", False)))
 
 
 def cmd_check(args) -> int:
@@ -206,59 +218,65 @@ def cmd_run(args) -> int:
 
 
 def _run_script(args, runner=None) -> int:
-    from .engine import Engine, MissingCapability, RuntimeFailure
-    from .io.manifest import RunFolder
+    from .api import Script, execute
+    from .engine import MissingCapability, RuntimeFailure
+    from .api import OutputFolderError
     from .core.diagnostics import Diagnostic, IrtError
-    from .lang.interp import Interpreter
+    from .progress import RunProgress
 
+    script = Script(Path(args.file))
+    presets = getattr(args, "set", None) or ()
     try:
-        checked = _load_check(args.file, getattr(args, "set", None) or (), args)
+        checked = _load_check(args.file, presets, args)
     except IrtError as e:
         _print_diags(e)
         return EXIT_INPUT
-    script = Path(args.file)
-    out = Path(args.out) if args.out else Path("irt-out") / script.stem
-    from .engine import needs_from_steps
-    from .tracer import Progress
-
-    try:   # the manifest says "running" (incomplete) before any output is written
-        folder = RunFolder(out, str(script), checked.script_hash, checked.state.seed,
-                           allow_outside=bool(getattr(args, "allow_outside", False)))
-    except (OSError, ValueError) as e:
-        raise UsageError(f"cannot use {str(out)!r} as the output folder: {getattr(e, 'strerror', None) or e}") from None
-    records, history = needs_from_steps(checked.steps)
-    it = Interpreter(engine=Engine(folder, records=records, history=history, runner=runner), limits=checked.limits,
-                     allow_outside=checked.allow_outside)
-    status = "complete"
-    code = EXIT_OK
+    enabled = False if getattr(args, "quiet", False) else True if getattr(args, "progress", False) else None
     try:
-        it.preset(getattr(args, "set", None) or ())
-        it.run_file(script)
-        if it.diags:  # run-time diagnostics (a value only known while running)
-            raise IrtError(it.diags.items)
-    except MissingCapability as e:
+        ex = execute(script, presets=presets, seed=getattr(args, "seed", None),
+                     out=Path(args.out) if args.out else None, runner=runner, progress=RunProgress(enabled=enabled),
+                     checked=checked)
+    except OutputFolderError as e:
+        raise UsageError(str(e)) from None
+    e, code = ex.error, EXIT_OK
+    if isinstance(e, MissingCapability):
         print(Diagnostic(e.span, f"{e.what} needs {e.capability}, which this version of irtlang "
                                  f"(v{__version__}) does not have yet; the run stops here").render(), file=sys.stderr)
-        status, code = f"stopped: {e.what} needs {e.capability}", EXIT_MISSING
-    except RuntimeFailure as e:
+        code = EXIT_MISSING
+    elif isinstance(e, RuntimeFailure):
         print(Diagnostic(e.span, e.message).render(), file=sys.stderr)
-        status, code = f"failed: {e.message}", EXIT_RUNTIME
-    except IrtError as e:
+        code = EXIT_RUNTIME
+    elif isinstance(e, IrtError):
         _print_diags(e)
-        status, code = "failed: input errors", EXIT_INPUT
-    except KeyboardInterrupt:
-        status, code = "interrupted", EXIT_INTERRUPTED
+        code = EXIT_INPUT
+    elif isinstance(e, KeyboardInterrupt):
         print("irt: interrupted; keeping what was written", file=sys.stderr)
-    except Exception as e:  # keep what was written, then report the internal error
-        if type(e).__name__ == "ClusterError":   # irtlang.cluster: the cluster failed, not irtlang
-            folder.write_manifest(f"failed: {e}")
-        else:
-            folder.write_manifest(f"internal error: {type(e).__name__}: {e}")
-        raise
-    man = folder.write_manifest(status)
+        code = EXIT_INTERRUPTED
+    folder, man = ex.folder, ex.manifest_path
     print(f"irt: outputs in {folder.root}/ ({len(folder.files)} file{'s' if len(folder.files) != 1 else ''}; "
           f"manifest {man})")
     return code
+
+
+def cmd_examples(args) -> int:
+    from .library import copy_examples, list_examples
+
+    if not args.copy:
+        if args.names:
+            print("irt: give --copy DIR to copy examples", file=sys.stderr)
+            return EXIT_INPUT
+        for name, about in list_examples():
+            print(f"{name:<24} {about}")
+        print("\nirt examples --copy DIR   copies them (with their includes and data) into DIR; an INCLUDE of one "
+              "of them (INCLUDE 'cassegrain.inr') finds the installed copy from any folder")
+        return EXIT_OK
+    try:
+        written = copy_examples(Path(args.copy), args.names or None, force=args.force)
+    except (FileExistsError, KeyError) as e:
+        print(f"irt: {e.args[0]}", file=sys.stderr)
+        return EXIT_INPUT
+    print(f"irt: copied {len(written)} file{'s' if len(written) != 1 else ''} into {args.copy}/")
+    return EXIT_OK
 
 
 def cmd_fmt(args) -> int:

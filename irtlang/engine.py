@@ -104,6 +104,8 @@ class Engine:
         self.predicate = None
         self.rays_traced = 0
         self._saved_from = {}   # resolved path of a SAVE RAYS file -> (the result and scene it was saved from)
+        self.collector = None   # irtlang.io.results.ResultsCollector: every image, spectrum and ledger (results.nc)
+        self.seed = None        # irt run --seed N: every TRACE uses N in place of the script's SEED
 
     # ------------------------------------------------------------------ dispatch
     def run_step(self, step: M.Step, interp) -> None:
@@ -168,7 +170,7 @@ class Engine:
             self._trace_camera(step, sc, cam)
             return
         try:
-            res = run_trace(sc, seed=sc.seed, level=p["level"], halt=p["halt"], until_error=p["until_error"],
+            res = run_trace(sc, seed=sc.seed if self.seed is None else self.seed, level=p["level"], halt=p["halt"], until_error=p["until_error"],
                             until_target=p["until_target"], records=self.need_records, history=self.need_history,
                             progress=self.progress, runner=self.runner)
         except MissingFeature as e:
@@ -177,6 +179,11 @@ class Engine:
         self.scene = sc
         self.rays_traced += res.n_traced
         self.folder.info["rays_traced"] = self.rays_traced
+        tier = data_tier(sc, self.folder.info.get("data_tier"))
+        self.folder.info["data_tier"] = tier
+        if self.collector is not None:
+            epoch = interp.lookup("EPOCH_UTC") if interp is not None else None
+            self.collector.new_frame(epoch if isinstance(epoch, str) else None, res.n_traced)
         lost = res.ledger[res.packed.n_rows - 1, 4].sum()
         emitted = res.ledger[res.packed.n_rows - 4, 0].sum()
         msg = f"TRACE: {res.n_traced:,} rays, {emitted:.6g} W emitted"
@@ -298,6 +305,8 @@ class Engine:
             lines.append(f"ledger: sum of absorbed_W = {total_abs:.12g} W, EMITTED = {emitted:.12g} W, "
                          f"relative difference {abs(total_abs - emitted) / emitted if emitted else 0:.1e}")
             self.out("\n".join(lines))
+            if self.collector is not None:
+                self.collector.add_ledger(rows, led, se, step.params["file"] or "")
             if step.params["file"]:
                 buf = io.StringIO()
                 w = csv.writer(buf, lineterminator="\n")
@@ -369,7 +378,8 @@ class Engine:
                  f" ({inside.mean():.1%} in the window); centroid {'XYZ'[ax[0]]} {cx / scale:.9g}, "
                  f"{'XYZ'[ax[1]]} {cy / scale:.9g} {lab}; rms radius {rms / scale:.6g} {lab}")
         if step.params["file"]:
-            self._write_image(step.params["file"], img[None], "spots", extent=(a0 / scale, a1 / scale, b0 / scale, b1 / scale))
+            self._write_image(step.params["file"], img[None], "spots", extent=(a0 / scale, a1 / scale, b0 / scale, b1 / scale),
+                              per_line=False, name="spots", coord_unit=None if step.params["what"] == "POSITION" else "1")
 
     def do_focus(self, step, interp):
         m = self._selected(step, "FOCUS")
@@ -425,6 +435,9 @@ class Engine:
                                                      for lam, f, e in zip(res.packed.lines_nm, flux, se)]
         shown = lines[:1] + lines[1:8] + (["..."] if len(lines) > 9 else []) + (lines[-1:] if len(lines) > 8 else [])
         self.out(f"SPECTRUM OF {self.scene.objects[key].name}:\n  " + "\n  ".join(shown))
+        if self.collector is not None:
+            self.collector.add_spectrum(self.scene.objects[key].name, res.packed.lines_nm, flux, se,
+                                        step.params["file"] or "")
         if step.params["file"]:
             self._write_text(step.params["file"], "\n".join(lines) + "\n", "spectrum")
 
@@ -447,14 +460,21 @@ class Engine:
             filters = (self.result.packed.d_filters[d] if getattr(self.result.packed, "d_filters", None)
                        else None)
             what = "lines"
+            bands = None
             if filters is not None:
                 what = "filters"
+                lam = np.asarray(self.result.packed.lines_nm, float)
+                T = np.asarray(filters[1], float)   # (lines, filters)
+                centre = (T * lam[:, None]).sum(0) / np.where(T.sum(0) > 0, T.sum(0), 1.0)
+                bands = (list(filters[0]), list(centre))
                 if step.params.get("filter") is not None:
                     k = step.params["filter"]
                     img, img2 = img[k:k + 1], img2[k:k + 1]
                     what = f"filter {filters[0][k]}"
+                    bands = ([filters[0][k]], [centre[k]])
             self._write_image(step.params["file"], img, "image", extent=(x0, x1, y0, y1), sum2=img2,
-                              per_line=filters is None)
+                              per_line=filters is None, name=obj.name, bands=bands, interp=interp,
+                              kind_label="image_diffraction" if step.params.get("diffraction") else "image")
             self.out(f"EXPORT {obj.name}: {img.shape[2]}x{img.shape[1]} pixels x {img.shape[0]} {what}, "
                      f"{img.sum():.6g} W{note} -> {step.params['file']}")
             return
@@ -476,7 +496,8 @@ class Engine:
             w = r["flux"][m][mk]
             img[k] = np.histogram2d(vec[mk, ax[1]], vec[mk, ax[0]], bins=(ny, nx), range=((b0, b1), (a0, a1)), weights=w)[0]
             img2[k] = np.histogram2d(vec[mk, ax[1]], vec[mk, ax[0]], bins=(ny, nx), range=((b0, b1), (a0, a1)), weights=w * w)[0]
-        self._write_image(step.params["file"], img, "image", extent=(a0 / f, a1 / f, b0 / f, b1 / f), sum2=img2)
+        self._write_image(step.params["file"], img, "image", extent=(a0 / f, a1 / f, b0 / f, b1 / f), sum2=img2,
+                          name=obj.name, kind_label="window")
         self.out(f"EXPORT {obj.name}: WINDOW grid {nx}x{ny} x {L} lines, {img.sum():.6g} W -> {step.params['file']}")
 
     def do_psf(self, step, interp):
@@ -579,15 +600,69 @@ class Engine:
         write_text(p, text)
         self.folder.record(p, kind)
 
-    def _write_image(self, rel, img, kind, extent, sum2=None, per_line=True):
+    def _write_image(self, rel, img, kind, extent, sum2=None, per_line=True, *, name=None, bands=None,
+                     coord_unit=None, interp=None, kind_label=None):
+        """An image file, and the image for results.nc.  extent in the script's length unit (coord_unit None), or
+        in coord_unit ("1": direction cosines); bands: (filter names, centre wavelengths nm) of the k images."""
         from .io.images import write_image
 
         p = self.folder.output(rel)
-        unit, _ = self._lu()
+        unit, f = self._lu()
         lines = (self.result.packed.lines_nm if per_line and img.shape[0] == len(self.result.packed.lines_nm)
                  else None)
-        for q in write_image(p, img, sum2=sum2, extent=extent, wavelengths_nm=lines, length_unit=unit):
+        mm = np.asarray(extent, float) * (f / 1e-3) if coord_unit is None else np.asarray(extent, float)
+        focal = focal_length_m(interp) if coord_unit is None else None
+        se = np.sqrt(np.asarray(sum2, np.float64)) if sum2 is not None else None
+        prov = {k: self.folder.info.get(k) for k in ("irtlang_version", "script", "script_sha256", "seed",
+                                                      "data_tier", "rays_traced")}
+        epoch = interp.lookup("EPOCH_UTC") if interp is not None else None
+        if isinstance(epoch, str):
+            prov["epoch_utc"] = epoch
+        for q in write_image(p, img, sum2=sum2, extent=tuple(mm) if coord_unit is None else extent,
+                             wavelengths_nm=lines, length_unit="mm" if coord_unit is None else "direction cosine",
+                             bands=bands[0] if bands else None, focal_length_m=focal, provenance=prov,
+                             object_name=name or kind):
             self.folder.record(q, kind)
+        if self.collector is not None:
+            self.collector.add_image(name=name or kind, kind=kind_label or kind, img=img, se=se, extent_mm=tuple(mm),
+                                     coord_unit=coord_unit or "mm", lines_nm=lines, bands=bands[0] if bands else None,
+                                     band_nm=bands[1] if bands else None, focal_m=focal, file=str(rel))
+
+
+def focal_length_m(interp) -> float | None:
+    """The focal length behind a detector's field angles: the last PSF's PSF_EFL, else the script's variable
+    FOCAL_LENGTH (a length); None when neither is known (docs/python_api.md)."""
+    if interp is None:
+        return None
+    for name in ("PSF_EFL", "FOCAL_LENGTH"):
+        v = interp.lookup(name)
+        if isinstance(v, Quantity) and v.dim == LENGTH and v.value > 0 and math.isfinite(v.value):
+            return float(v.value)
+    return None
+
+
+def data_tier(scene, before: str | None = None) -> str:
+    """Which Earth data the scene's MAPs come from: 'default' (MAP ... DEFAULT: the built-in tier), the tier
+    named by a map file's JSON sidecar ('real' for irtlang.earth.products output), 'user' for other map
+    files, 'none' without maps; several join with '+', and a run keeps every tier its traces used."""
+    import json
+
+    tiers = set() if before in (None, "none") else set(before.split("+"))
+    for m in scene.maps.values():
+        if getattr(m, "path", None) is None:
+            if getattr(m, "dataset", None) is not None:
+                tiers.add("default")
+            continue
+        tier = "user"
+        p = Path(m.path)
+        for side in (p.with_name(p.name + ".json"), p.with_suffix(".json")):
+            try:
+                tier = str(json.loads(side.read_text()).get("tier", tier))
+                break
+            except (OSError, ValueError, AttributeError):
+                continue
+        tiers.add(tier)
+    return "+".join(sorted(tiers)) or "none"
 
 
 class _LoadedResult:

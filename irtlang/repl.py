@@ -70,11 +70,25 @@ class _LazyEngine:
                 self.engine = Engine(self.folder, out=interp.out)
             except TypeError:  # an Engine without an output hook
                 self.engine = Engine(self.folder)
+            import tempfile
+
+            from .io.results import ResultsCollector
+
+            self.spill = Path(tempfile.mkdtemp(prefix=".irt-results-", dir=self.folder.root))
+            self.engine.collector = ResultsCollector(self.spill)   # results.nc when the session ends
         self.engine.run_step(step, interp)
 
     def close(self, interp) -> None:
         if self.folder is not None:
+            import shutil
+
+            from .api import _write_results
+
             self.folder.info["script_sha256"] = interp.script_hash
+            try:
+                _write_results(self.folder, self.engine.collector)
+            finally:
+                shutil.rmtree(self.spill, ignore_errors=True)
             self.folder.write_manifest("repl session ended")
 
 

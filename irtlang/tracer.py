@@ -304,7 +304,7 @@ def run_trace(scene, *, seed: int, level: int, halt: float, until_error: float |
     batch = max(chunk, (batch + chunk - 1) // chunk * chunk)
     acc = Accumulator(ctx)
     target = list(scene.objects).index(until_target) if until_target else None
-    prog = progress or Progress(ctx.total)
+    prog = progress.start(ctx.total) if hasattr(progress, "start") else progress or Progress(ctx.total)
     passes = 0
     interrupted = False
     run = runner or (lambda c, units: (c.run_batch(f, n, reuse=True) for f, n in units))

@@ -15,7 +15,11 @@ from .atomic import atomic_path, write_bytes, write_text
 
 
 def write_image(path: Path, img: np.ndarray, *, sum2=None, extent=None, wavelengths_nm=None,
-                length_unit: str = "mm") -> list[Path]:
+                length_unit: str = "mm", bands=None, focal_length_m: float | None = None, provenance=None,
+                object_name: str | None = None) -> list[Path]:
+    """Write an image file; returns the paths written.  extent (x0, x1, y0, y1) in length_unit; bands: the
+    filter names of the k images (DETECTOR FILTERS); focal_length_m: adds the field-angle WCS to a FITS file;
+    provenance: FITS header cards (irtlang_version, script_sha256, seed, data_tier, rays_traced, epoch_utc)."""
     path = Path(path)
     ext = path.suffix.lower()
     img = np.asarray(img, np.float64)
@@ -32,7 +36,8 @@ def write_image(path: Path, img: np.ndarray, *, sum2=None, extent=None, waveleng
                     np.save(fh, stderr)
             written.append(sp)
     elif ext in (".fits", ".fit"):
-        write_bytes(path, fits_bytes(img, stderr, extent, wavelengths_nm, length_unit))
+        write_bytes(path, fits_bytes(img, stderr, extent, wavelengths_nm, length_unit, bands=bands,
+                                     focal_length_m=focal_length_m, provenance=provenance, object_name=object_name))
     elif ext == ".png":
         _png(path, img, extent, length_unit)
     elif ext == ".csv":
@@ -59,9 +64,10 @@ def _card(key: str, value, comment: str = "") -> bytes:
     elif isinstance(value, (int, np.integer)):
         v = f"{int(value):>20}"
     elif isinstance(value, (float, np.floating)):
-        v = f"{float(value):>20.12E}"
+        v = f"{repr(float(value)).upper():>20}"   # the shortest text that reads back to the same double
     else:
-        v = f"'{str(value):<8}'"
+        text = "".join(c if 32 <= ord(c) < 127 else "?" for c in str(value))[:68].replace("'", "''")[:68]
+        v = f"'{text:<8}'"
     s = f"{key:<8}= {v}" + (f" / {comment}" if comment else "")
     return s[:80].ljust(80).encode("ascii")
 
@@ -76,28 +82,91 @@ def _data(a: np.ndarray) -> bytes:
     return raw + b"\0" * (-len(raw) % 2880)
 
 
-def fits_bytes(img, stderr, extent, wavelengths_nm, length_unit) -> bytes:
+def _wcs_cards(shape, extent, wavelengths_nm, length_unit, bands, focal_length_m) -> list[bytes]:
+    """The WCS: detector-plane x, y (length_unit) and the spectral axis (WAVE in nm for evenly spaced lines,
+    else the line or band index with WAVEnnnn / FILTnnnn cards); with a focal length, the alternate WCS 'A'
+    of field angles (a gnomonic projection: tan(angle) = position / focal length, OFLN/OFLT offsets in deg)."""
+    L, ny, nx = shape
+    cards = [_card("WCSAXES", 3), _card("WCSNAME", "DETECTOR PLANE")]
+    axis3 = []
+    lam = None if wavelengths_nm is None else np.asarray(wavelengths_nm, float)
+    if lam is not None and len(lam) == L and (L == 1 or np.allclose(np.diff(lam), lam[1] - lam[0], rtol=1e-9,
+                                                                     atol=0)):
+        axis3 = [("CTYPE3", "WAVE", "vacuum wavelength of the line"), ("CUNIT3", "nm", ""),
+                 ("CRPIX3", 1.0, ""), ("CRVAL3", float(lam[0]), ""),
+                 ("CDELT3", float(lam[1] - lam[0]) if L > 1 else 1.0, "")]
+    elif bands is not None:
+        axis3 = [("CTYPE3", "BAND", "filter band index: FILTnnnn names the band"), ("CRPIX3", 1.0, ""),
+                 ("CRVAL3", 1.0, ""), ("CDELT3", 1.0, "")]
+    else:
+        axis3 = [("CTYPE3", "LINE", "wavelength line index: WAVEnnnn in nm"), ("CRPIX3", 1.0, ""),
+                 ("CRVAL3", 1.0, ""), ("CDELT3", 1.0, "")]
+    if extent is not None:
+        x0, x1, y0, y1 = map(float, extent)
+        dx, dy = (x1 - x0) / nx, (y1 - y0) / ny
+        cx, cy = x0 + dx / 2, y0 + dy / 2
+        unit = [] if " " in length_unit else [length_unit]   # no CUNIT for direction cosines
+        cards += [_card("CTYPE1", "DETX", "detector-plane local x")] + [_card("CUNIT1", u) for u in unit] + [
+                  _card("CRPIX1", 1.0), _card("CRVAL1", cx, "pixel 1 centre"), _card("CDELT1", dx),
+                  _card("CTYPE2", "DETY", "detector-plane local y")] + [_card("CUNIT2", u) for u in unit] + [
+                  _card("CRPIX2", 1.0), _card("CRVAL2", cy, "pixel 1 centre"), _card("CDELT2", dy)]
+    cards += [_card(k, v, c) for k, v, c in axis3]
+    if extent is not None:
+        cards += [_card("PIXSIZEX", dx, f"pixel width, {length_unit}"),
+                  _card("PIXSIZEY", dy, f"pixel height, {length_unit}")]
+        if focal_length_m and length_unit == "mm":
+            F = focal_length_m * 1e3
+            deg = 180.0 / np.pi
+            cards += [_card("WCSNAMEA", "FIELD ANGLE"), _card("FOCALLEN", F, "focal length, mm"),
+                      _card("CTYPE1A", "OFLN-TAN", "field angle x (offset longitude)"), _card("CUNIT1A", "deg"),
+                      _card("CRPIX1A", 1.0 - cx / dx, "the optical axis (x = 0)"), _card("CRVAL1A", 0.0),
+                      _card("CDELT1A", deg * dx / F),
+                      _card("CTYPE2A", "OFLT-TAN", "field angle y (offset latitude)"), _card("CUNIT2A", "deg"),
+                      _card("CRPIX2A", 1.0 - cy / dy, "the optical axis (y = 0)"), _card("CRVAL2A", 0.0),
+                      _card("CDELT2A", deg * dy / F)]
+            cards += [_card(k + "A", v, c) for k, v, c in axis3]
+    return cards
+
+
+def fits_bytes(img, stderr, extent, wavelengths_nm, length_unit, *, bands=None, focal_length_m=None,
+               provenance=None, object_name=None) -> bytes:
     """A FITS file (primary image, optional STDERR extension) by the FITS 4.0 standard, no dependencies."""
+    import datetime as _dt
+
     L, ny, nx = img.shape
     cards = [_card("SIMPLE", True), _card("BITPIX", -64), _card("NAXIS", 3), _card("NAXIS1", nx),
-             _card("NAXIS2", ny), _card("NAXIS3", L), _card("EXTEND", True), _card("BUNIT", "W"),
+             _card("NAXIS2", ny), _card("NAXIS3", L), _card("EXTEND", True), _card("BUNIT", "W", "flux per pixel"),
              _card("ORIGIN", "irtlang")]
-    if extent is not None:
-        x0, x1, y0, y1 = extent
-        cards += [_card("CTYPE1", "LOCAL_X"), _card("CUNIT1", length_unit), _card("CRPIX1", 1.0),
-                  _card("CRVAL1", x0 + (x1 - x0) / nx / 2), _card("CDELT1", (x1 - x0) / nx),
-                  _card("CTYPE2", "LOCAL_Y"), _card("CUNIT2", length_unit), _card("CRPIX2", 1.0),
-                  _card("CRVAL2", y0 + (y1 - y0) / ny / 2), _card("CDELT2", (y1 - y0) / ny),
-                  _card("PIXSIZEX", (x1 - x0) / nx, f"pixel width, {length_unit}"),
-                  _card("PIXSIZEY", (y1 - y0) / ny, f"pixel height, {length_unit}")]
+    if object_name:
+        cards.append(_card("OBJECT", object_name, "the detector (or SPOTS, PSF)"))
+    wcs = _wcs_cards(img.shape, extent, wavelengths_nm, length_unit, bands, focal_length_m)
+    cards += wcs
     if wavelengths_nm is not None:
         for k, lam in enumerate(wavelengths_nm[:999]):
             cards.append(_card(f"WAVE{k + 1:04d}"[:8], float(lam), "nm, line k+1"))
+    if bands is not None:
+        for k, b in enumerate(list(bands)[:999]):
+            cards.append(_card(f"FILT{k + 1:04d}"[:8], str(b), "filter of band k+1"))
+    pv = dict(provenance or {})
+    cards.append(_card("DATE", _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%S"), "file written, UTC"))
+    if pv.get("epoch_utc"):
+        cards.append(_card("DATE-OBS", pv["epoch_utc"], "EPOCH of the frame, UTC"))
+    for key, name, comment in (("IRTVER", "irtlang_version", "irtlang version"),
+                               ("SCRIPT", "script", "the script run"),
+                               ("SCRSHA", "script_sha256", "SHA-256 of the script text"),
+                               ("SEED", "seed", "random seed"), ("DATATIER", "data_tier", "Earth data tier"),
+                               ("RAYS", "rays_traced", "source rays traced in the run so far")):
+        if pv.get(name) is not None:
+            v = pv[name]
+            if name == "script":
+                v = Path(str(v)).name
+            cards.append(_card(key, v, comment))
+    cards.append(_card("EXTNAME", "FLUX"))
     out = _block(cards) + _data(img)
     if stderr is not None:
         ext = [_card("XTENSION", "IMAGE"), _card("BITPIX", -64), _card("NAXIS", 3), _card("NAXIS1", nx),
                _card("NAXIS2", ny), _card("NAXIS3", L), _card("PCOUNT", 0), _card("GCOUNT", 1),
-               _card("EXTNAME", "STDERR"), _card("BUNIT", "W")]
+               _card("EXTNAME", "STDERR"), _card("BUNIT", "W", "Monte Carlo standard error per pixel")] + wcs
         out += _block(ext) + _data(stderr)
     return out
 

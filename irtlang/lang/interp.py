@@ -525,7 +525,18 @@ class Interpreter(BindContext):
         if Path(rel).suffix.lower() not in SCRIPT_SUFFIXES:
             raise error(span, f"INCLUDE reads irtlang scripts (*.inr); '{rel}' is not one",
                         "a data file is read by the command that uses it (MEDIUM ... TABLE, MAP, LOAD RAYS, ...)")
-        p = self.input_path(rel, span, limit="script").resolve()
+        try:
+            p = self.input_path(rel, span, limit="script").resolve()
+        except IrtError as e:   # not next to the including script: the search path ($IRT_PATH, installed examples)
+            from ..library import find_include
+
+            found = find_include(rel)
+            if found is None:
+                if not e.diagnostics[0].message.startswith("file not found"):
+                    raise
+                raise error(span, f"{e.diagnostics[0].message}, nor on the INCLUDE search path",
+                            "the search path is $IRT_PATH, then the installed examples (irt examples)") from None
+            p = found.resolve()
         if p in self.include_stack:
             chain = " -> ".join(x.name for x in self.include_stack + [p])
             raise error(span, f"recursive INCLUDE: {chain}")

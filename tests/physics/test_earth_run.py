@@ -208,6 +208,7 @@ def test_outputs_and_provenance(pacific):
     man = json.loads((pacific / "manifest.json").read_text())
     # the forward trace's Sun rays, then the camera trace's rays (256 x 256 pixels x the lines of the bands)
     assert man["seed"] == 20080318 and man["rays_traced"] > 2000 * 295
+    assert man["data_tier"] == "default"     # its maps are MAP ... DEFAULT (the manifest said "none")
     listed = {f["path"] for f in man["files"]}
     assert {"disk_spectra.csv", f"frames/{tag}_450nm.npy", f"rays/{tag}_toa.h5"} <= listed
     s = spectra(pacific)["2008-03-18T18:19:00Z"]

@@ -183,8 +183,14 @@ def test_irt_run_on_a_scheduler_writes_the_same_files(client, tmp_path, capsys, 
     assert "ledger.csv" in names and "screen.npy" in names and "rays.h5" in names
     assert names == sorted(q.name for q in (tmp_path / "there").iterdir())
     for n in names:
-        if n not in ("manifest.json", "rays.h5"):   # the manifest has times; HDF5 files carry their own
+        if n not in ("manifest.json", "rays.h5", "results.nc"):   # the manifest has times; HDF5 files their own
             assert (tmp_path / "here" / n).read_bytes() == (tmp_path / "there" / n).read_bytes(), n
+    import xarray as xr
+
+    with xr.open_dataset(tmp_path / "here" / "results.nc") as a, xr.open_dataset(tmp_path / "there" / "results.nc") as b:
+        assert sorted(a.data_vars) == sorted(b.data_vars)
+        for v in a.data_vars:
+            assert np.array_equal(a[v].values, b[v].values), v
     from analysis.rayfile import read_rays
 
     ra, rb = read_rays(tmp_path / "here" / "rays.h5"), read_rays(tmp_path / "there" / "rays.h5")

@@ -410,7 +410,7 @@ def test_missing_include(tmp_path):
     (tmp_path / "main.inr").write_text("x = 1\nINCLUDE 'nope.inr'\n")
     (d,) = diagnose_file(tmp_path / "main.inr")
     assert (d.span.line, d.span.col) == (2, 9)
-    assert d.message == f"file not found: 'nope.inr' (looked in {tmp_path})"
+    assert d.message == f"file not found: 'nope.inr' (looked in {tmp_path}), nor on the INCLUDE search path"
 
 
 def test_errors_inside_an_included_file_name_that_file(tmp_path):

@@ -151,7 +151,7 @@ def test_run_without_trace_writes_the_manifest(scripts):
     assert man["irtlang_version"] == irtlang.__version__
     assert man["script_sha256"] == hashlib.sha256(GOOD.encode()).hexdigest()
     assert man["seed"] == 42
-    assert man["files"] == []
+    assert [f["path"] for f in man["files"]] == ["results.nc"]   # results.nc: in every run folder
     assert man["status"] == "complete"
     assert man["script"] == "good.inr"
 
@@ -192,7 +192,7 @@ def test_run_stops_on_a_missing_capability_and_keeps_the_manifest(tmp_path, monk
     man = json.loads((tmp_path / "out" / "manifest.json").read_text())
     assert man["status"] == "stopped: TRACE needs the non-sequential tracer"
     assert man["script_sha256"] == hashlib.sha256(TRACE_SCRIPT.encode()).hexdigest()
-    assert man["files"] == []
+    assert [f["path"] for f in man["files"]] == ["results.nc"]   # results.nc: in every run folder
 
 
 # ---------------------------------------------------------------- internal errors

@@ -99,6 +99,8 @@ def test_steps_reach_the_engine_and_failures_are_diagnostics(session, tmp_path):
     assert session.feed("PRINT 1") == "1"
     session.close()
     assert (tmp_path / "irt-out" / "repl" / "manifest.json").exists()
+    assert (tmp_path / "irt-out" / "repl" / "results.nc").exists()                 # as every run folder
+    assert not [q for q in (tmp_path / "irt-out" / "repl").iterdir() if q.name.startswith(".irt-results-")]
 
 
 def test_engine_output_is_part_of_the_reply(session):
