@@ -14,6 +14,8 @@ import math
 
 import numpy as np
 
+from ..core.diagnostics import RuntimeFailure
+from ..core.units import LENGTH, NONE, Quantity
 from . import diffraction as D
 
 FL_SCATTERED = 1
@@ -60,9 +62,6 @@ def _start_path(pk, s, start):
 
 
 def run_psf(eng, step, interp):
-    from ..core.diagnostics import RuntimeFailure
-    from ..core.units import LENGTH, NONE, Quantity
-
     eng._need_rays(step, "PSF")
     res, sc = eng.result, eng.scene
     pk = res.packed
@@ -166,8 +165,6 @@ def run_psf(eng, step, interp):
 
 def diffraction_image(eng, step, name, img, img2, pitch):
     """The detector image (L, ny, nx) convolved per line with the last PSF's aberration-free kernel."""
-    from ..core.diagnostics import RuntimeFailure
-
     ps = getattr(eng, "psf", None)
     if ps is None:
         raise RuntimeFailure(step.span, "EXPORT ... DIFFRACTION needs a PSF first (PSF after a TRACE of a GRID RECT)")
