@@ -89,6 +89,7 @@ class Interpreter(BindContext):
         self.limits = limits if limits is not None else current_limits()   # irtlang/limits.py
         self.allow_outside = allow_outside          # irt run --allow-outside: outputs may leave the run folder
         self.steps_run = 0                          # statements and loop iterations run (limit steps)
+        self.outputs = set()                        # every output name the script's commands write (normalized)
         self.rays_from = None                       # the step that made the current rays (TRACE, LOAD_RAYS)
         self.saved = {}                             # output name (normalized) -> span of the SAVE RAYS writing it
         self.script_names = set()                  # where a script was read from (INCLUDE resolution)
@@ -505,6 +506,7 @@ class Interpreter(BindContext):
         f = params.get("file")
         if isinstance(f, str) and kind != "LOAD_RAYS":
             self.output_name(f, self._arg_span(f, span))
+            self.outputs.add(_normal(f))
             if kind == "SAVE_RAYS":
                 self.saved[_normal(f)] = span
         if kind == "ANALYZE":
@@ -513,6 +515,8 @@ class Interpreter(BindContext):
                 if prev in ("--output", "--plot") and isinstance(a, str) and a.startswith("\0path:"):
                     name = a[len("\0path:"):]
                     self.output_name(name, self._arg_span(name, span))
+                    self.outputs.add(_normal(name))
+            self.check_analyze_inputs(argv, params.get("base"), span)
         pix = None
         if kind == "PIXELS":
             pix = params["nx"] * params["ny"]
@@ -524,6 +528,11 @@ class Interpreter(BindContext):
                 raise error(span, f"an image of {over}", lim.hint("pixels"))
         if kind == "TRACE":
             self.check_trace(span)
+        if kind in RAY_STEPS and self.rays_from in (None, "RESET"):   # the engine would stop here: say so now
+            what = {"SPECTRUM_OF": "SPECTRUM OF", "SAVE_RAYS": "SAVE RAYS"}.get(kind, kind)
+            if kind == "STATS":
+                what = f"STATS {params.get('what') or 'LEDGER'}"
+            raise error(span, f"{what} has no rays to work on: TRACE or LOAD RAYS first")
         if kind in ("TRACE", "LOAD_RAYS", "RESET"):   # a file this script saved keeps its TRACE's ledger
             self.rays_from = "LOADED" if kind == "LOAD_RAYS" and not params.get("in_run_folder") else kind
         if self.rays_from == "LOADED" and (kind == "SPECTRUM_OF" or (kind == "STATS" and params.get("what")
@@ -532,6 +541,38 @@ class Interpreter(BindContext):
             raise error(span, f"{what} needs the flux ledger of a TRACE: rays that LOAD RAYS reads from a file "
                         "another run wrote carry none", "STATS POSITION, SPOTS, EXPORT work on loaded rays; the "
                         "ledger of a file this script saves is kept")
+
+    def check_analyze_inputs(self, argv, base, span: Span) -> None:
+        """The input files of an ANALYZE (its positional arguments) must be written earlier by this script (in
+        the run folder) or found as inputs are (the script's folder, then IRT_PATH)."""
+        from .commands import analysis_parser
+
+        plain = [a.replace("\0path:", "") for a in argv]
+        try:
+            p = analysis_parser()
+            ns = p.parse_args(plain)
+            sub = p._subparsers._group_actions[0].choices[plain[0]]
+        except (ValueError, KeyError, AttributeError, IndexError):   # reported by ANALYZE itself
+            return
+        names = []
+        for act in sub._actions:
+            if not act.option_strings and act.dest not in ("help",):
+                v = getattr(ns, act.dest, None)
+                names.extend(v if isinstance(v, list) else [v] if isinstance(v, str) else [])
+        for name in names:
+            if self._produced(name) or find_input(name, Path(base) if base else self.base_dir) is not None:
+                continue
+            head = name.split(":", 1)[0]     # FILE.h5:DETECTOR[:LINE]
+            if head != name and (self._produced(head) or find_input(head, Path(base) if base else self.base_dir)):
+                continue
+            raise error(self._arg_span(name, span), f"ANALYZE input '{name}' is not written earlier by this "
+                        "script and not found", "name a file an earlier command writes (EXPORT, SPECTRUM OF, "
+                        "SAVE RAYS ...) or one next to the script (or in IRT_PATH)")
+
+    def _produced(self, name: str) -> bool:
+        """Whether an earlier command of this script writes `name` (a file, or a folder holding some)."""
+        k = _normal(name)
+        return k in self.outputs or any(o.startswith(k.rstrip("/") + "/") for o in self.outputs)
 
     def check_trace(self, span: Span) -> None:
         """Rays of one TRACE and each detector's pixels against the limits `rays` and `pixels`."""
@@ -620,6 +661,7 @@ class Interpreter(BindContext):
 
 
 SCRIPT_SUFFIXES = (".inr",)
+RAY_STEPS = {"STATS", "SPOTS", "FOCUS", "SPECTRUM_OF", "EXPORT", "SAVE_RAYS", "PSF"}   # steps that need rays
 PATH_ENV = "IRT_PATH"
 
 
