@@ -84,7 +84,7 @@ def series_and_frames() -> None:
         with open(HERE / "spectra" / f"20080318T{18 + h:02d}19.csv", "w") as f:
             f.write("wavelength_nm,flux_W,stderr_W\n")
             for lam, fl in zip(w, (1.0 + 0.1 * h) * np.array([2.0e-9, 1.8e-9, 1.5e-9])):
-                f.write(f"{lam:g},{fl!r},{0.01 * fl!r}\n")
+                f.write(f"{lam:g},{float(fl)!r},{float(0.01 * fl)!r}\n")
     (HERE / "rgb").mkdir(exist_ok=True)
     y, x = np.mgrid[0:16, 0:16] / 15.0
     for k in range(3):

@@ -528,11 +528,6 @@ class Interpreter(BindContext):
                 raise error(span, f"an image of {over}", lim.hint("pixels"))
         if kind == "TRACE":
             self.check_trace(span)
-        if kind in RAY_STEPS and self.rays_from in (None, "RESET"):   # the engine would stop here: say so now
-            what = {"SPECTRUM_OF": "SPECTRUM OF", "SAVE_RAYS": "SAVE RAYS"}.get(kind, kind)
-            if kind == "STATS":
-                what = f"STATS {params.get('what') or 'LEDGER'}"
-            raise error(span, f"{what} has no rays to work on: TRACE or LOAD RAYS first")
         if kind in ("TRACE", "LOAD_RAYS", "RESET"):   # a file this script saved keeps its TRACE's ledger
             self.rays_from = "LOADED" if kind == "LOAD_RAYS" and not params.get("in_run_folder") else kind
         if self.rays_from == "LOADED" and (kind == "SPECTRUM_OF" or (kind == "STATS" and params.get("what")
@@ -661,7 +656,6 @@ class Interpreter(BindContext):
 
 
 SCRIPT_SUFFIXES = (".inr",)
-RAY_STEPS = {"STATS", "SPOTS", "FOCUS", "SPECTRUM_OF", "EXPORT", "SAVE_RAYS", "PSF"}   # steps that need rays
 PATH_ENV = "IRT_PATH"
 
 
