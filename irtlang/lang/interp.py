@@ -671,15 +671,15 @@ def find_input(rel: str, base: Path) -> Path | None:
     if "\0" in rel:
         return None
     p = Path(rel)
-    if p.is_absolute():
-        return p if p.exists() else None
-    for d in [base] + [Path(x) for x in search_path()]:
-        q = d / p
-        try:
+    try:
+        if p.is_absolute():
+            return p if p.exists() else None
+        for d in [base] + [Path(x) for x in search_path()]:
+            q = d / p
             if q.exists():
                 return q
-        except OSError:     # a name too long for the file system
-            return None
+    except OSError:     # a name too long for the file system
+        return None
     return None
 
 
@@ -699,7 +699,8 @@ def output_problem(rel: str, allow_outside: bool = False) -> str | None:
         return f"output '{rel}' names a folder, not a file"
     if allow_outside:
         return None
-    if os.path.isabs(rel) or rel.startswith(("/", "\\", "~")) or (len(rel) > 1 and rel[1] == ":"):
+    drive = len(rel) > 1 and rel[0].isalpha() and rel[1] == ":" and rel[2:3] in ("", "/", "\\")   # C:\x
+    if os.path.isabs(rel) or rel.startswith(("/", "\\")) or drive:
         return f"output '{rel}' is an absolute path: outputs stay inside the run folder"
     depth = 0
     for part in rel.replace("\\", "/").split("/"):
@@ -738,12 +739,10 @@ def check_source_size(src: Source, limits: Limits) -> None:
         raise error(Span(src, 0, 0, 0, 0), f"{src.name} is too large: {over}", limits.hint("script"))
     lim = limits["statement"]
     if len(src.text) > lim:
-        start = 0
         for n, line in enumerate(src.text.split("\n"), 1):
             if len(line) > lim:
                 raise error(Span(src, n, 1, n, 2), f"line {n} is too long: "
                             f"{limits.exceeded('statement', len(line))}", limits.hint("statement"))
-            start += len(line) + 1
 
 
 def _display(p: Path) -> str:
