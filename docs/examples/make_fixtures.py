@@ -9,6 +9,8 @@ clouds.npy     a 90 x 180 LATLON fraction map (float16 in [0, 1])
 baffle.stl     a 20 x 20 x 40 box, ASCII STL (made with trimesh)
 run.h5         an empty ray file in the docs/rayfile.md schema (for LOAD RAYS)
 telescope.inr  a script that the INCLUDE examples include
+spectra/       three disk spectra <YYYYmmddTHHMM>.csv, an hour apart (for ANALYZE SERIES)
+rgb/           three 16 x 16 PNG frames (for ANALYZE ANIMATE)
 """
 from pathlib import Path
 
@@ -65,6 +67,29 @@ def main() -> None:
         "!! (its own inputs would be found next to this file)\n"
         "focal_length = 10500\n"
         "PRINT 'telescope.inr: focal length {focal_length} mm'\n")
+
+    series_and_frames()
+
+
+def series_and_frames() -> None:
+    """The inputs of the ANALYZE SERIES and ANIMATE examples (scripts that pass irt check also run)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib import pyplot as plt
+
+    (HERE / "spectra").mkdir(exist_ok=True)
+    w = np.array([450.0, 550.0, 650.0])
+    for h in range(3):
+        with open(HERE / "spectra" / f"20080318T{18 + h:02d}19.csv", "w") as f:
+            f.write("wavelength_nm,flux_W,stderr_W\n")
+            for lam, fl in zip(w, (1.0 + 0.1 * h) * np.array([2.0e-9, 1.8e-9, 1.5e-9])):
+                f.write(f"{lam:g},{float(fl)!r},{float(0.01 * fl)!r}\n")
+    (HERE / "rgb").mkdir(exist_ok=True)
+    y, x = np.mgrid[0:16, 0:16] / 15.0
+    for k in range(3):
+        img = np.stack([x, y, np.full_like(x, k / 2.0)], axis=-1)
+        plt.imsave(HERE / "rgb" / f"frame_{k:02d}.png", img)
 
 
 if __name__ == "__main__":

@@ -44,6 +44,7 @@ class Interpreter(BindContext):
         self.limits = limits if limits is not None else current_limits()   # irtlang/limits.py
         self.allow_outside = allow_outside          # irt run --allow-outside: outputs may leave the run folder
         self.steps_run = 0                          # statements and loop iterations run (limit steps)
+        self.outputs = set()                        # every output name the script's commands write (normalized)
         self.rays_from = None                       # the step that made the current rays (TRACE, LOAD_RAYS)
         self.saved = {}                             # output name (normalized) -> span of the SAVE RAYS writing it
         self.script_names = set()                  # where a script was read from (INCLUDE resolution)
@@ -458,6 +459,7 @@ class Interpreter(BindContext):
         f = params.get("file")
         if isinstance(f, str) and kind != "LOAD_RAYS":
             self.output_name(f, self._arg_span(f, span))
+            self.outputs.add(_normal(f))
             if kind == "SAVE_RAYS":
                 self.saved[_normal(f)] = span
         if kind == "ANALYZE":
@@ -466,6 +468,8 @@ class Interpreter(BindContext):
                 if prev in ("--output", "--plot") and isinstance(a, str) and a.startswith("\0path:"):
                     name = a[len("\0path:"):]
                     self.output_name(name, self._arg_span(name, span))
+                    self.outputs.add(_normal(name))
+            self.check_analyze_inputs(argv, params.get("base"), span)
         pix = None
         if kind == "PIXELS":
             pix = params["nx"] * params["ny"]
@@ -485,6 +489,38 @@ class Interpreter(BindContext):
             raise error(span, f"{what} needs the flux ledger of a TRACE: rays that LOAD RAYS reads from a file "
                         "another run wrote carry none", "STATS POSITION, SPOTS, EXPORT work on loaded rays; the "
                         "ledger of a file this script saves is kept")
+
+    def check_analyze_inputs(self, argv, base, span: Span) -> None:
+        """The input files of an ANALYZE (its positional arguments) must be written earlier by this script (in
+        the run folder) or found as inputs are (the script's folder, then IRT_PATH)."""
+        from .commands import analysis_parser
+
+        plain = [a.replace("\0path:", "") for a in argv]
+        try:
+            p = analysis_parser()
+            ns = p.parse_args(plain)
+            sub = p._subparsers._group_actions[0].choices[plain[0]]
+        except (ValueError, KeyError, AttributeError, IndexError):   # reported by ANALYZE itself
+            return
+        names = []
+        for act in sub._actions:
+            if not act.option_strings and act.dest not in ("help",):
+                v = getattr(ns, act.dest, None)
+                names.extend(v if isinstance(v, list) else [v] if isinstance(v, str) else [])
+        for name in names:
+            if self._produced(name) or find_input(name, Path(base) if base else self.base_dir) is not None:
+                continue
+            head = name.split(":", 1)[0]     # FILE.h5:DETECTOR[:LINE]
+            if head != name and (self._produced(head) or find_input(head, Path(base) if base else self.base_dir)):
+                continue
+            raise error(self._arg_span(name, span), f"ANALYZE input '{name}' is not written earlier by this "
+                        "script and not found", "name a file an earlier command writes (EXPORT, SPECTRUM OF, "
+                        "SAVE RAYS ...) or one next to the script (or in IRT_PATH)")
+
+    def _produced(self, name: str) -> bool:
+        """Whether an earlier command of this script writes `name` (a file, or a folder holding some)."""
+        k = _normal(name)
+        return k in self.outputs or any(o.startswith(k.rstrip("/") + "/") for o in self.outputs)
 
     def check_trace(self, span: Span) -> None:
         """Rays of one TRACE and each detector's pixels against the limits `rays` and `pixels`."""
@@ -599,15 +635,15 @@ def find_input(rel: str, base: Path) -> Path | None:
     if "\0" in rel:
         return None
     p = Path(rel)
-    if p.is_absolute():
-        return p if p.exists() else None
-    for d in [base] + [Path(x) for x in search_path()]:
-        q = d / p
-        try:
+    try:
+        if p.is_absolute():
+            return p if p.exists() else None
+        for d in [base] + [Path(x) for x in search_path()]:
+            q = d / p
             if q.exists():
                 return q
-        except OSError:     # a name too long for the file system
-            return None
+    except OSError:     # a name too long for the file system
+        return None
     return None
 
 
@@ -627,7 +663,8 @@ def output_problem(rel: str, allow_outside: bool = False) -> str | None:
         return f"output '{rel}' names a folder, not a file"
     if allow_outside:
         return None
-    if os.path.isabs(rel) or rel.startswith(("/", "\\", "~")) or (len(rel) > 1 and rel[1] == ":"):
+    drive = len(rel) > 1 and rel[0].isalpha() and rel[1] == ":" and rel[2:3] in ("", "/", "\\")   # C:\x
+    if os.path.isabs(rel) or rel.startswith(("/", "\\")) or drive:
         return f"output '{rel}' is an absolute path: outputs stay inside the run folder"
     depth = 0
     for part in rel.replace("\\", "/").split("/"):
@@ -666,12 +703,10 @@ def check_source_size(src: Source, limits: Limits) -> None:
         raise error(Span(src, 0, 0, 0, 0), f"{src.name} is too large: {over}", limits.hint("script"))
     lim = limits["statement"]
     if len(src.text) > lim:
-        start = 0
         for n, line in enumerate(src.text.split("\n"), 1):
             if len(line) > lim:
                 raise error(Span(src, n, 1, n, 2), f"line {n} is too long: "
                             f"{limits.exceeded('statement', len(line))}", limits.hint("statement"))
-            start += len(line) + 1
 
 
 def _display(p: Path) -> str:

@@ -36,6 +36,7 @@ def test_analyze_psf_of_a_gaussian_spot(tmp_path, capsys):
 
 def test_missing_input_stops_the_run_with_a_located_error(tmp_path, capsys):
     s = _write(tmp_path, "c.inr", "PRINT 'before'\nANALYZE DISK 'nothere.npy'\n")
-    assert main(["run", str(s), "--out", str(tmp_path / "out")]) == 1
+    # issue 21: irt check finds the missing input (exit 2, before the run), at the string that names it
+    assert main(["run", str(s), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
-    assert "c.inr:2:1: error: ANALYZE DISK: nothere.npy: no such file" in err
+    assert "c.inr:2:14: error: ANALYZE input 'nothere.npy' is not written earlier by this script and not found" in err
