@@ -204,6 +204,12 @@ def test_landcover_is_water_exactly_where_the_mask_is(tier):
 def test_snow_and_ice_class_covers_the_ice_sheets(tier):
     a = area_km2(tier["LANDCOVER"] == D.SNOW)
     assert 14.0e6 < a < 16.5e6
+    lat, lon = np.meshgrid(*cell_centres(D.NLAT), indexing="ij")
+    ice = tier["LANDCOVER"] == D.SNOW
+    greenland = (lat > 58) & (lat < 85) & (lon > -75) & (lon < -10)
+    assert area_km2(ice & (lat < -60)) == pytest.approx(12.3e6, rel=0.05)     # grounded Antarctic ice
+    # Greenland: 1.71e6 km2 of ice of 2.17e6 km2; whole 0.5 deg cells of majority ice spread onto the rim
+    assert 1.71e6 < area_km2(ice & greenland) < 2.17e6
 
 
 @pytest.mark.parametrize("where, lat, lon, classes", [
