@@ -189,3 +189,26 @@ def test_bad_merra2_and_at_input_is_a_located_error(merra_dir, tmp_path, text, m
     with pytest.raises(IrtError) as e:
         check_file(f)
     assert msg in str(e.value) and "bad.inr:" in str(e.value)
+
+
+def test_the_earth_script_takes_the_clouds_of_each_hour(merra_dir):
+    """examples_scripts/earth.inr: the generated clouds of hour k by default, MERRA-2's step of each frame's EPOCH
+    with --set clouds_file=... (frames at 18:19 and 19:19 UTC: the 18:30 and 19:30 means)."""
+    from pathlib import Path
+
+    from irtlang.lang.interp import check_file
+
+    script = Path(__file__).resolve().parents[2] / "examples_scripts" / "earth.inr"
+    base = ["hours=2", "sun_rays=10", "save_rays=0"]
+    pattern = str(merra_dir / "MERRA2_300.tavg1_2d_rad_Nx.2008031*.nc4")
+    for extra, names in (([], ["CLOUD_LOW.npy", "CLOUD_LOW_T+0001.000H.npy"]),
+                         ([f"clouds_file='{pattern}'"], ["MERRA2_300.tavg1_2d_rad_Nx.20080318_CLDLOW_18.npy",
+                                                         "MERRA2_300.tavg1_2d_rad_Nx.20080318_CLDLOW_19.npy"])):
+        it = check_file(script, base + extra)
+        traces = [s for s in it.steps if s.kind == "TRACE"]
+        assert len(traces) == 2
+        for st, want in zip(traces, names):
+            assert Path(st.scene.maps["CLOUD_LOW"].path).name == want
+        if extra:
+            high = traces[1].scene.maps["CLOUD_HIGH"].path
+            assert Path(high).name.endswith("_CLDHGH_19.npy")
