@@ -114,10 +114,11 @@ def aerosol_model_line(model: str, type_name: str, bottom_km: float, top_km: flo
 
 def aerosol_type_map(landcover: np.ndarray) -> np.ndarray:
     """Index into EARTH_TYPES per cell: maritime clean over water, desert over barren land, continental average
-    over other land, Arctic / Antarctic (index 4) poleward of 60 deg; urban (3) is left to a city map."""
+    over other land, urban (3) over urban and built-up land (IGBP 13), Arctic / Antarctic (index 4) poleward of
+    60 deg."""
     from .latlon import cell_centres
 
     lat, _ = cell_centres(landcover.shape[0])
-    out = np.where(landcover == 0, 0, np.where(landcover == 16, 2, 1)).astype(np.uint8)
+    out = np.where(landcover == 0, 0, np.where(landcover == 16, 2, np.where(landcover == 13, 3, 1))).astype(np.uint8)
     out[np.abs(lat) > 60.0, :] = 4
     return out

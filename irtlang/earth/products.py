@@ -424,3 +424,69 @@ def read_merra2(path, variable: str = "CLDTOT", nlat: int = 360, time_index: int
     return LatLonGrid(out.astype(np.float32), f"MERRA-2 {variable}", str(units),
                       _meta(path, "MERRA-2", variable, time_index=time_index, regrid="bilinear",
                             licence="NASA GMAO MERRA-2: no restrictions on use (cite Gelaro et al. 2017)"))
+
+
+def merra2_times(path) -> list:
+    """The times (naive UTC datetimes) of a MERRA-2 file's steps, from its `time` variable ('minutes since
+    2008-03-18 00:30:00': the hourly files stamp each mean at the middle of its hour)."""
+    import datetime as dt
+    import re
+
+    path = Path(path)
+    t, attrs = read_dataset(path, "time")
+    units = str(attrs.get("units", ""))
+    m = re.match(r"\s*(minutes|hours|seconds|days)\s+since\s+(\d{4}-\d{1,2}-\d{1,2})[ T]?(\d{1,2}:\d{2}(:\d{2})?)?",
+                 units)
+    if not m:
+        raise ProductError(f"{path.name}: the time variable's units {units!r} are not '<unit> since <date>'")
+    base = dt.datetime.fromisoformat(m.group(2) + " " + (m.group(3) or "00:00"))
+    step = {"minutes": 60.0, "hours": 3600.0, "seconds": 1.0, "days": 86400.0}[m.group(1)]
+    return [base + dt.timedelta(seconds=float(v) * step) for v in np.atleast_1d(np.asarray(t, float))]
+
+
+def merra2_step(files, when) -> tuple:
+    """(file, time index) of the step whose averaging interval holds `when` (a datetime or ISO text): each
+    step covers its time stamp -+ half the spacing of the file's steps (one hour for M2T1NX files)."""
+    import datetime as dt
+
+    if isinstance(when, str):
+        when = dt.datetime.fromisoformat(when)
+    have = []
+    for f in files:
+        ts = merra2_times(f)
+        half = (ts[1] - ts[0]) / 2 if len(ts) > 1 else dt.timedelta(minutes=30)
+        for i, t in enumerate(ts):
+            if t - half <= when < t + half:
+                return Path(f), i
+        if ts:
+            have.append(f"{Path(f).name}: {ts[0] - half:%Y-%m-%d %H:%M} to {ts[-1] + half:%Y-%m-%d %H:%M}")
+    raise ProductError(f"no MERRA-2 step covers {when:%Y-%m-%d %H:%M} UTC; the files cover " + "; ".join(have))
+
+
+def merra2_cloud_map(files, variable: str, when, cache_dir=None, levels: int | None = None) -> Path:
+    """The MERRA-2 cloud fraction `variable` (CLDLOW, CLDMID, CLDHGH or CLDTOT of the hourly M2T1NXRAD files)
+    of the step that holds `when`, on the default tier's 0.5 deg grid (read_merra2: bilinear), quantized to the
+    ten levels of the seed's fraction maps (irtlang.earth.data.quantize: 0, 1/9, ..., 1), written into the data
+    cache (data_dir()/merra2/) with its sidecar; returns the .npy path (reused while the file is unchanged)."""
+    from .data import CLOUD_LEVELS, data_dir, quantize
+    from .latlon import read_sidecar, save_grid
+
+    path, i = merra2_step([Path(f) for f in files], when)
+    st = path.stat()
+    prm = {"file": str(path.resolve()), "size": st.st_size, "mtime_ns": st.st_mtime_ns, "variable": variable,
+           "time_index": i, "levels": levels or CLOUD_LEVELS}
+    out = data_dir(cache_dir) / "merra2" / f"{path.stem}_{variable.upper()}_{i:02d}.npy"
+    if out.exists() and read_sidecar(out).get("parameters") == prm:
+        return out
+    g = read_merra2(path, variable, 360, time_index=i)
+    v = g.data
+    if np.nanmin(v) < -1e-3 or np.nanmax(v) > 1 + 1e-3:
+        raise ProductError(f"{path.name}: {variable} runs from {np.nanmin(v):g} to {np.nanmax(v):g}; a cloud "
+                           "fraction lies in [0, 1]")
+    t = merra2_times(path)[i]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    save_grid(out, quantize(v, levels or CLOUD_LEVELS),
+              {**g.meta, "dataset": f"MERRA-2 {variable.upper()}", "units": "1", "time_utc": f"{t:%Y-%m-%dT%H:%M}",
+               "source": f"MERRA-2 {variable.upper()} of {path.name} at {t:%Y-%m-%d %H:%M} UTC (Gelaro et al. "
+                         "2017), bilinear to 0.5 deg, quantized to 10 levels", "parameters": prm})
+    return out

@@ -84,14 +84,107 @@ def _band_values(table, bands_nm):
     return np.interp(np.asarray(bands_nm, float), HRI_BANDS_NM, np.asarray(table, float))
 
 
+# ============================================================================ land spectra (earthlib)
+# Each class's K0(lambda) has the shape of a mix of measured (and, for canopies, PROSAIL-modelled) reflectance
+# spectra of the earthlib library (Anderson 2020, PyPI earthlib 1.1.0, MIT; 400-2450 nm, 10 nm), after the seed
+# paper's Table 2 which builds the classes from mixes of library spectra (its example: grass + soil for woody
+# savanna).  Endmembers: the mean of earthlib's LEVEL_2 groups 'vegetation' (green canopies), 'npv'
+# (non-photosynthetic vegetation: litter, bark, dry grass), 'bare' soil (LEVEL_3 'soil') and 'built' (urban
+# materials).  The mixing fractions are irtlang's (constructed):
+SPECTRAL_MIX = {
+    1: {"veg": 1.0}, 2: {"veg": 1.0}, 3: {"veg": 0.9, "npv": 0.1}, 4: {"veg": 1.0}, 5: {"veg": 1.0},
+    6: {"veg": 0.7, "soil": 0.3}, 7: {"veg": 0.35, "npv": 0.15, "soil": 0.5}, 8: {"veg": 0.7, "soil": 0.3},
+    9: {"veg": 0.5, "npv": 0.25, "soil": 0.25}, 10: {"veg": 0.6, "npv": 0.3, "soil": 0.1},
+    11: {"veg": 0.6, "soil": 0.4}, 12: {"veg": 0.7, "soil": 0.3}, 13: {"built": 0.8, "veg": 0.2},
+    14: {"veg": 0.8, "soil": 0.2}, 16: {"soil": 1.0},
+}
+EARTHLIB_RANGE_NM = (400.0, 2450.0)
+
+
+def _earthlib_file(name: str):
+    import importlib.metadata as md
+    from pathlib import Path
+
+    try:
+        p = Path(md.distribution("earthlib").locate_file(f"earthlib/data/{name}"))
+    except md.PackageNotFoundError:
+        raise ValueError("the land spectra need the PyPI package earthlib (pip install earthlib)") from None
+    if not p.exists():
+        raise ValueError(f"earthlib is installed without its data file {name}")
+    return p
+
+
+_ENDMEMBERS: dict = {}
+
+
+def earthlib_endmembers() -> tuple:
+    """(wavelengths nm, {'veg', 'npv', 'soil', 'built': mean reflectance}) from earthlib's spectral library
+    (spectra.sli: an ENVI spectral library, float32 little-endian, 7261 spectra x 180 wavelengths, the water
+    bands left out; spectra.csv: each spectrum's classes), read without importing earthlib."""
+    import csv
+    import re
+
+    if not _ENDMEMBERS:
+        hdr = _earthlib_file("spectra.sli.hdr").read_text()
+        get = lambda k: re.search(rf"^{k}\s*=\s*(.+)$", hdr, re.M | re.I).group(1).strip()  # noqa: E731
+        ns, nl = int(get("samples")), int(get("lines"))
+        if int(get("data type")) != 4 or int(get("byte order")) != 0:
+            raise ValueError("earthlib's spectra.sli is not little-endian float32")
+        wl = np.array([float(x) for x in re.search(r"wavelength\s*=\s*\{([^}]*)\}", hdr, re.I).group(1).split(",")])
+        wl = wl * (1000.0 if "micro" in get("wavelength units").lower() else 1.0)
+        spec = np.fromfile(_earthlib_file("spectra.sli"), "<f4").reshape(nl, ns).astype(float)
+        with open(_earthlib_file("spectra.csv"), newline="") as f:
+            rows = list(csv.DictReader(f))
+        if len(rows) != nl or len(wl) != ns:
+            raise ValueError("earthlib's spectra.csv and spectra.sli disagree")
+        l2 = np.array([r["LEVEL_2"] for r in rows])
+        l3 = np.array([r["LEVEL_3"] for r in rows])
+        groups = {"veg": l2 == "vegetation", "npv": l2 == "npv", "soil": (l2 == "bare") & (l3 == "soil"),
+                  "built": l2 == "built"}
+        _ENDMEMBERS["wl"] = wl
+        _ENDMEMBERS["mean"] = {k: spec[m].mean(axis=0) for k, m in groups.items()}
+        _ENDMEMBERS["count"] = {k: int(m.sum()) for k, m in groups.items()}
+    return _ENDMEMBERS["wl"], _ENDMEMBERS["mean"]
+
+
+def class_spectrum_shape(cls: int, wl_nm) -> np.ndarray:
+    """The class's mixed earthlib spectrum at wl_nm (linear across the library's left-out water bands, held at
+    its end values outside 400-2450 nm)."""
+    wl, mean = earthlib_endmembers()
+    mix = sum(f * mean[k] for k, f in SPECTRAL_MIX[cls].items())
+    return np.interp(np.asarray(wl_nm, float), wl, mix)
+
+
+def land_iso_spectrum(cls: int, wl_nm) -> np.ndarray:
+    """K0 (iso) of a land class at any lines: the mixed spectrum times a scale that makes it pass exactly
+    through the seven HRI band values (the scale linear between 450 and 950 nm, held at its 450 nm value
+    down to 400 nm and at its 950 nm value beyond, so the near and short-wave infrared keep the measured shape:
+    the 1.4 and 1.9 um water bands of leaves, the soil's rise).  Below 400 nm, where the library has no data,
+    K0 is linear from the 350 nm band value to the value at 400 nm and held at the 350 nm value below 350 nm."""
+    iso_t, _ = IGBP_ROSSLI[cls]
+    wl = np.atleast_1d(np.asarray(wl_nm, float))
+    bands = np.array(HRI_BANDS_NM[1:])
+    ratio = np.array(iso_t[1:]) / class_spectrum_shape(cls, bands)
+    k0 = class_spectrum_shape(cls, wl) * np.interp(wl, bands, ratio)
+    k400 = float(class_spectrum_shape(cls, [400.0])[0] * ratio[0])
+    lo = wl < 400.0
+    k0[lo] = np.interp(wl[lo], [HRI_BANDS_NM[0], 400.0], [iso_t[0], k400])
+    return np.clip(k0, 0.0, None)
+
+
 def igbp_kernel_weights(cls: int, bands_nm=HRI_BANDS_NM):
-    """(iso, vol, geo) arrays at the bands (interpolated between the HRI band centres) for an IGBP class."""
+    """(iso, vol, geo) arrays at the lines bands_nm for an IGBP class: iso the class spectrum
+    (land_iso_spectrum; at the seven HRI bands exactly IGBP_ROSSLI's values), vol and geo its fixed fractions."""
     if cls == 15:
         return snow_rossli(bands_nm)
     if cls not in IGBP_ROSSLI:
         raise ValueError(f"no land BRDF for class {cls} ({IGBP_CLASSES[cls] if 0 <= cls < 17 else '?'})")
     iso_t, (v, g) = IGBP_ROSSLI[cls]
-    iso = _band_values(iso_t, bands_nm)
+    b = np.atleast_1d(np.asarray(bands_nm, float))
+    if all(float(x) in HRI_BANDS_NM for x in b):
+        iso = _band_values(iso_t, b)
+    else:
+        iso = land_iso_spectrum(cls, b)
     return iso, v * iso, g * iso
 
 

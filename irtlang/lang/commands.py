@@ -351,13 +351,43 @@ MAP_DATASETS = ("LANDCOVER", "LAND_MASK", "CLOUD_FRACTION", "SNOW_FRACTION", "SE
 
 
 @command("MAP", Form((Name("name"), Variants("kind", {"LATLON": Form((Variants("from", {
-    "DEFAULT": Form((Choice("dataset", MAP_DATASETS),))}, default=Form((Path("file"),))),))}))),
-         "materials", "a global latitude-longitude grid from a file or a built-in dataset")
+    "DEFAULT": Form((Choice("dataset", MAP_DATASETS),),
+                    (Clause("AT", (V("at", TIME),), doc="the cloud maps that many hours after the generator's start"),)),
+    "MERRA2": Form((Path("files"), Name("variable")))}, default=Form((Path("file"),))),))}))),
+         "materials", "a global latitude-longitude grid from a file, a built-in dataset or MERRA-2 files")
 def _map(it, b, st):
+    """MAP name LATLON DEFAULT dataset [AT t]: a default-tier dataset; AT takes the generated cloud maps (CLOUD_LOW,
+    CLOUD_MIDDLE, CLOUD_HIGH, CLOUD_FRACTION) t after the generator's start (they drift and renew hour by hour:
+    docs/earth.md).  MAP name LATLON MERRA2 'files' VARIABLE: the MERRA-2 field (e.g. CLDLOW of the hourly
+    M2T1NXRAD files; 'files' may hold * and ?) at the current EPOCH, quantized to the ten cloud levels of the
+    default tier (irtlang.earth.products.merra2_cloud_map)."""
     name = b["name"]
     it.fail("map", name)
-    if b.variants["from"] == "DEFAULT":
+    how = b.variants["from"]
+    if how == "DEFAULT":
         m = M.MapDef(name, "LATLON", None, b["dataset"], b.span)
+        if "at" in b:
+            from ..earth.data import DatasetUnavailable, hourly_cloud_path
+
+            try:
+                p = hourly_cloud_path(b["dataset"], float(b["at"]) / 3600.0)
+            except DatasetUnavailable as e:
+                raise error(b.span_of("dataset"), f"MAP {name} LATLON DEFAULT {b['dataset']} AT: {e}",
+                            "only CLOUD_LOW, CLOUD_MIDDLE, CLOUD_HIGH and CLOUD_FRACTION change with time") from None
+            m = M.MapDef(name, "LATLON", str(p), None, b.span)
+    elif how == "MERRA2":
+        when = it.lookup("EPOCH_UTC")
+        if when is None:
+            raise error(b.span, "MAP ... MERRA2 needs the date: no EPOCH has been set",
+                        "write EPOCH '2008-03-18T18:19' (or EPOCH ... PLUS t) before the MAP line")
+        files = _merra2_files(it, b["files"], b.span_of("files"))
+        from ..earth.products import ProductError, merra2_cloud_map
+
+        try:
+            p = merra2_cloud_map(files, b["variable"], str(when))
+        except (ProductError, OSError) as e:
+            raise error(b.span_of("files"), f"MAP {name} LATLON MERRA2: {e}") from None
+        m = M.MapDef(name, "LATLON", str(p), None, b.span)
     else:
         from ..io.maps import check_latlon_file
 
@@ -365,6 +395,20 @@ def _map(it, b, st):
         check_latlon_file(path, b.span_of("file"))
         m = M.MapDef(name, "LATLON", str(path), None, b.span)
     it.define("map", name.upper(), m, b.span)
+
+
+def _merra2_files(it, pattern: str, span) -> list:
+    """The files a MERRA2 pattern names (relative to the script's folder; * and ? allowed)."""
+    import glob
+    from pathlib import Path as _P
+
+    base = it.include_stack[-1].parent if it.include_stack else it.base_dir
+    pat = pattern if _P(pattern).is_absolute() else str(_P(base) / pattern)
+    found = sorted(_P(f) for f in glob.glob(pat) if _P(f).is_file())
+    if not found:
+        raise error(span, f"no MERRA-2 file matches '{pattern}' (looked in {_P(pat).parent})",
+                    "give the M2T1NXRAD files of the run's days, e.g. 'merra/MERRA2_300.tavg1_2d_rad_Nx.200803*.nc4'")
+    return found
 
 
 # ==================================================================== 5. geometry

