@@ -432,7 +432,7 @@ class Engine:
                 continue
             name = a[len("\0path:"):]
             out = self.folder.output(name, create=False)
-            if k > 0 and raw[k - 1] in ("--output", "--plot"):
+            if k > 0 and raw[k - 1] in ("--output", "--plot", "--mean-plot", "--mean-output"):
                 out.parent.mkdir(parents=True, exist_ok=True)
                 written.append(out)
                 argv.append(str(out))
