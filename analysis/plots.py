@@ -195,7 +195,7 @@ def plot_mean_spectrum(wavelengths_nm, mean, path, *, stderr=None, spread=None, 
             ax.axvline(x, color="0.6", lw=0.6, ls=":", zorder=0)
         if wl.min() <= x <= wl.max():
             ax.text(x, top * 1.16, text, rotation=90, ha="center", va="top", fontsize=7)
-    ax.set_xlim(wl.min(), wl.max())
+    ax.set_xlim(wl.min() - (5.0 if wl.min() == wl.max() else 0.0), wl.max() + (5.0 if wl.min() == wl.max() else 0.0))
     ax.set_xlabel("wavelength [nm]")
     ax.set_ylabel(ylabel)
     if title:

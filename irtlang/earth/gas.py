@@ -297,9 +297,9 @@ def line_transmittance(lines_nm, atmosphere: str = DEFAULT_ATMOSPHERE, airmass: 
     t = sixs_table(atmosphere)
     bands = line_bands(lines_nm)
     w = t["wavelength_nm"]
-    if bands.min() < w[0] - 1.0 or bands.max() > w[-1] + 2.5:
+    if bands.min() < w[0] - 10.0 or bands.max() > w[-1] + 10.0:      # the end nodes hold for up to 10 nm
         raise ValueError(f"lines' bands {bands.min():g}-{bands.max():g} nm reach outside the gas table "
-                         f"({w[0]:g}-{w[-1]:g} nm)")
+                         f"({w[0]:g}-{w[-1]:g} nm, held for 10 nm beyond)")
     out = {g: _solar_weighted_means(w, t[f"{g}_m{int(airmass)}"], bands) for g in GROUPS}
     out["total"] = _solar_weighted_means(
         w, np.prod([t[f"{g}_m{int(airmass)}"] for g in GROUPS], axis=0), bands)
