@@ -289,13 +289,14 @@ def _solar_weighted_means(w, y, bands):
     return out
 
 
-def line_transmittance(lines_nm, atmosphere: str = DEFAULT_ATMOSPHERE, airmass: float = 2.0) -> dict:
+def line_transmittance(lines_nm, atmosphere: str = DEFAULT_ATMOSPHERE, airmass: float = 2.0, bands_nm=None) -> dict:
     """Band transmittance of each gas group's whole column per line at air mass 1, 2 or 3 ({'water', 'ozone',
-    'mixed', 'total'}): the solar-weighted mean of 6SV's transmittances over the line's band."""
+    'mixed', 'total'}): the solar-weighted mean of 6SV's transmittances over the line's band (bands_nm: explicit
+    (lo, hi) per line instead of half the spacing each side)."""
     if float(airmass) not in AIRMASSES:
         raise ValueError(f"airmass must be one of {AIRMASSES}")
     t = sixs_table(atmosphere)
-    bands = line_bands(lines_nm)
+    bands = line_bands(lines_nm) if bands_nm is None else np.asarray(bands_nm, float).reshape(-1, 2)
     w = t["wavelength_nm"]
     if bands.min() < w[0] - 10.0 or bands.max() > w[-1] + 10.0:      # the end nodes hold for up to 10 nm
         raise ValueError(f"lines' bands {bands.min():g}-{bands.max():g} nm reach outside the gas table "
@@ -306,14 +307,15 @@ def line_transmittance(lines_nm, atmosphere: str = DEFAULT_ATMOSPHERE, airmass: 
     return out
 
 
-def line_optical_depth(lines_nm, atmosphere: str = DEFAULT_ATMOSPHERE, ref_airmass: float = 2.0) -> dict:
+def line_optical_depth(lines_nm, atmosphere: str = DEFAULT_ATMOSPHERE, ref_airmass: float = 2.0,
+                       bands_nm=None) -> dict:
     """Effective vertical absorption optical depth of each group's column per line: -ln T_band(M_ref) / M_ref."""
-    t = line_transmittance(lines_nm, atmosphere, ref_airmass)
+    t = line_transmittance(lines_nm, atmosphere, ref_airmass, bands_nm)
     return {g: -np.log(np.maximum(t[g], 1e-12)) / ref_airmass for g in GROUPS}
 
 
 def layer_absorption(levels_km, bands=None, *, atmosphere: str = DEFAULT_ATMOSPHERE, ref_airmass: float = 2.0,
-                     **_ignored) -> dict:
+                     bands_nm=None) -> dict:
     """Absorption optical depth per layer and line: {'water', 'ozone', 'mixed', 'total'}, each (n_layers, n_lines).
 
     bands: the wavelength lines (nm; each line's band reaches halfway to its neighbours).  Each group's column
@@ -325,7 +327,7 @@ def layer_absorption(levels_km, bands=None, *, atmosphere: str = DEFAULT_ATMOSPH
     if bands is None:
         bands = list(HRI_FILTERS)
     lines = np.asarray([float(b) for b in bands])
-    tau = line_optical_depth(lines, atmosphere, ref_airmass)
+    tau = line_optical_depth(lines, atmosphere, ref_airmass, bands_nm)
     sh = afgl_layer_columns(atmosphere, levels_km, shares=True)
     out = {g: sh[{"water": "h2o", "ozone": "o3", "mixed": "air"}[g]][:, None] * tau[g][None, :] for g in GROUPS}
     out["total"] = out["water"] + out["ozone"] + out["mixed"]
