@@ -20,6 +20,7 @@ Every value is per wavelength line, in the order of bands_nm: the script's WAVEL
 """
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -137,9 +138,9 @@ def _header(what: str, bands_nm) -> list:
 
 
 def write_earth_includes(folder, bands_nm=surfaces.HRI_BANDS_NM, *, clamp: bool = False) -> dict:
-    """Write the include files (and the per-layer cloud maps and the aerosol-type map) into folder; returns
-    {name: path}.  clamp: the cloud optics (tabulated at 350-950 nm) take their nearest band's values outside
-    that range, as the surface tables do (for the Earth script's 300-2500 nm lines; docs/earth.md)."""
+    """Write the include files and the AFGL belt map (atmosphere_belts.npy) into folder; returns {name: path}.
+    The clouds' optics come from Mie theory at every line (300-2500 nm); clamp only matters for the seven-band
+    tables (land BRDFs, water-leaving reflectance), which hold their end values outside 350-950 nm."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     bands = [float(b) for b in bands_nm]
@@ -171,6 +172,7 @@ def write_earth_includes(folder, bands_nm=surfaces.HRI_BANDS_NM, *, clamp: bool 
     with atomic_path(bp) as tmp:
         with open(tmp, "wb") as f:
             np.save(f, afgl_belt_map(36))
+        os.chmod(tmp, 0o644)
     out[BELT_MAP_FILE] = bp
     for name, lines in files.items():
         p = folder / name

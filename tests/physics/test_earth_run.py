@@ -77,7 +77,7 @@ def test_shipped_includes_are_what_the_generator_writes(tmp_path):
     lines = np.linspace(300.0, 2500.0, 295)
     files = write_earth_includes(tmp_path, lines, clamp=True)
     for name, p in files.items():
-        assert (EARTH.parent / "earth" / name).read_text() == p.read_text(), \
+        assert (EARTH.parent / "earth" / name).read_bytes() == p.read_bytes(), \
             f"examples_scripts/earth/{name} is stale: run python examples_scripts/earth/make_includes.py"
 
 
