@@ -182,23 +182,28 @@ def plot_mean_spectrum(wavelengths_nm, mean, path, *, stderr=None, spread=None, 
         e = np.asarray(stderr, dtype=np.float64)
         ax.fill_between(wl, m - 2 * e, m + 2 * e, color="tab:blue", alpha=0.45, lw=0,
                         label="+-2 standard errors (Monte Carlo)")
-    ax.plot(wl, m, color="k", lw=0.9, label="mean over the day")
-    top = float(np.nanmax(m if spread is None else m + np.asarray(spread))) * 1.05 or 1.0
-    ax.set_ylim(0.0, top * 1.18)
+    ax.plot(wl, m, color="k", lw=0.9, label="mean over time")
+    hi = m + (2 * np.asarray(stderr, dtype=np.float64) if stderr is not None else 0.0)
+    if spread is not None:
+        hi = np.maximum(hi, m + np.asarray(spread, dtype=np.float64))
+    top = float(np.nanmax(hi)) or 1.0
+    ax.set_ylim(0.0, top * 1.32)
+    k = 0
     for f in features:
         if len(f) == 3:
-            lo, hi, text = f
-            ax.axvspan(lo, hi, color="0.85", zorder=0)
-            x = 0.5 * (lo + hi)
+            lo, hi_, text = f
+            ax.axvspan(lo, hi_, color="0.88", zorder=0)
+            x = 0.5 * (lo + hi_)
         else:
             x, text = f
             ax.axvline(x, color="0.6", lw=0.6, ls=":", zorder=0)
-        if wl.min() <= x <= wl.max():
-            ax.text(x, top * 1.16, text, rotation=90, ha="center", va="top", fontsize=7)
+        if wl.min() <= x <= wl.max():      # labels in two staggered rows so that neighbours do not overlap
+            ax.text(x, top * (1.30 if k % 2 == 0 else 1.17), text, rotation=90, ha="center", va="top", fontsize=6.5)
+            k += 1
     ax.set_xlim(wl.min() - (5.0 if wl.min() == wl.max() else 0.0), wl.max() + (5.0 if wl.min() == wl.max() else 0.0))
     ax.set_xlabel("wavelength [nm]")
     ax.set_ylabel(ylabel)
     if title:
         ax.set_title(title)
-    ax.legend(loc="upper right", fontsize=7, framealpha=0.9)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=3, fontsize=7, frameon=False)
     return _save(fig, path)

@@ -1,5 +1,12 @@
-"""Gas absorption per atmospheric layer: ozone, water vapour and the uniformly mixed gases (O2), from the
-SPCTRAL2 band model (Bird and Riordan 1986, J. Clim. Appl. Meteor. 25, 87-97) and its coefficient table.
+"""Gas absorption per atmospheric layer and wavelength line.
+
+The Earth model's absorption (``layer_absorption``, ``line_transmittance``; the second half of this module):
+6SV's band model (H2O, O3, O2, CO2, CH4, N2O, CO at 10 cm^-1 resolution) on the five AFGL 1986 atmospheres,
+tabulated offline in irtlang/data/gas_6sv_afgl1986.csv and averaged over each line's own band.
+
+The first half keeps the candidate it replaced, for comparison (``layer_absorption_spectrl2``): ozone, water
+vapour and the uniformly mixed gases (O2) from the SPCTRAL2 band model (Bird and Riordan 1986, J. Clim. Appl.
+Meteor. 25, 87-97) and its coefficient table.
 
 The coefficients come from a registry package: pvlib (BSD-3-Clause) carries the SPCTRAL2 table (122 wavelengths,
 300-4000 nm: extraterrestrial irradiance and the absorption coefficients of water vapour a_w, ozone a_o and the
