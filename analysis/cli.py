@@ -200,7 +200,8 @@ def _cmd_series(args):
             "times": len(series.times), "first_utc": format_time_utc(series.times[0]),
             "last_utc": format_time_utc(series.times[-1]), "wavelength_nm": series.wavelengths_nm,
             "mean_apparent_albedo": albedo.mean(axis=0), "min_apparent_albedo": float(albedo.min()),
-            "max_apparent_albedo": float(albedo.max()), "mean_plot": None if not args.mean_plot else str(args.mean_plot),
+            "max_apparent_albedo": float(albedo.max()),
+            "mean_plot": None if not args.mean_plot else str(args.mean_plot),
             "median_relative_stderr_of_mean": float(np.median(mean["stderr"] / np.where(mean["mean"] > 0, mean["mean"],
                                                                                          np.inf)))}
 

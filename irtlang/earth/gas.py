@@ -153,8 +153,9 @@ def layer_shares(levels_km) -> dict:
             "mixed": -np.diff(p) / P0}
 
 
-def layer_absorption_spectrl2(levels_km, bands=None, *, ref_airmass: float = 2.0, ozone_atm_cm: float = DEFAULT_OZONE_ATM_CM,
-                     water_cm: float = DEFAULT_WATER_CM, cache_dir=None) -> dict:
+def layer_absorption_spectrl2(levels_km, bands=None, *, ref_airmass: float = 2.0,
+                              ozone_atm_cm: float = DEFAULT_OZONE_ATM_CM, water_cm: float = DEFAULT_WATER_CM,
+                              cache_dir=None) -> dict:
     """Absorption optical depth per layer and band: {'ozone', 'water', 'mixed', 'total'}, each (n_layers, n_bands).
 
     bands: a list of (lo, hi) in nm, or of band centres (HRI_FILTERS keys); default the seven HRI bands."""
