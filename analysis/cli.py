@@ -172,25 +172,38 @@ def _cmd_spectrum(args):
 
 
 def _cmd_series(args):
-    from .series import format_time_utc, read_spectra_series, series_apparent_albedo, write_series_csv
+    from .series import (EARTH_FEATURES, format_time_utc, read_spectra_series, series_apparent_albedo,
+                         series_mean_spectrum, write_mean_csv, write_series_csv)
 
     series = read_spectra_series(args.spectra_dir)
     albedo = series_apparent_albedo(series.flux_W, series.wavelengths_nm, tsi=args.tsi,
                                     sun_distance_au=args.sun_distance_au, distance_km=args.distance_km,
                                     phase_deg=args.phase_deg, radius_km=args.radius_km, area_m2=args.area_m2)
     write_series_csv(args.output, series, albedo)
+    day = series.times[0]
     if args.plot:
-        from .plots import plot_time_wavelength
+        from .plots import plot_time_wavelength_pair
 
-        day = series.times[0]
-        plot_time_wavelength(albedo, series.hours_since_midnight(), series.wavelengths_nm, args.plot,
-                             label="apparent albedo", diverging=False,
-                             time_label=f"UTC hour [h from {day:%Y-%m-%d} 00:00]")
+        plot_time_wavelength_pair(albedo, series.hours_since_midnight(), series.wavelengths_nm, args.plot,
+                                  label="apparent albedo", time_label=f"UTC hour [h from {day:%Y-%m-%d} 00:00]")
+    mean = series_mean_spectrum(series, albedo)
+    if args.mean_output:
+        write_mean_csv(args.mean_output, series.wavelengths_nm, mean)
+    if args.mean_plot:
+        from .plots import plot_mean_spectrum
+
+        plot_mean_spectrum(series.wavelengths_nm, mean["mean"], args.mean_plot, stderr=mean["stderr"],
+                           spread=mean["spread"], features=EARTH_FEATURES if args.features == "earth" else (),
+                           title=f"disk-integrated spectrum, mean of {len(series.times)} time(s) from "
+                                 f"{format_time_utc(day)}")
     return {"output": str(args.output), "plot": None if not args.plot else str(args.plot),
             "times": len(series.times), "first_utc": format_time_utc(series.times[0]),
             "last_utc": format_time_utc(series.times[-1]), "wavelength_nm": series.wavelengths_nm,
             "mean_apparent_albedo": albedo.mean(axis=0), "min_apparent_albedo": float(albedo.min()),
-            "max_apparent_albedo": float(albedo.max())}
+            "max_apparent_albedo": float(albedo.max()),
+            "mean_plot": None if not args.mean_plot else str(args.mean_plot),
+            "median_relative_stderr_of_mean": float(np.median(mean["stderr"] / np.where(mean["mean"] > 0, mean["mean"],
+                                                                                         np.inf)))}
 
 
 def _cmd_animate(args):
@@ -284,7 +297,13 @@ def build_parser(subparsers):
     p.add_argument("spectra_dir", help="folder of <YYYYmmddTHHMM>.csv files (wavelength_nm,flux_W,stderr_W)")
     p.add_argument("-o", "--output", required=True,
                    help="output CSV: time_utc,wavelength_nm,flux_W,stderr_W,apparent_albedo")
-    p.add_argument("--plot", help="write a time x wavelength image of the apparent albedo (PNG/PDF/SVG)")
+    p.add_argument("--plot", help="write the time x wavelength maps of the apparent albedo and of its difference "
+                   "from the mean over time, side by side (PNG/PDF/SVG)")
+    p.add_argument("--mean-plot", help="write the mean spectrum over time with its uncertainty band (PNG/PDF/SVG)")
+    p.add_argument("--mean-output", help="write the mean spectrum as CSV: wavelength_nm,mean_apparent_albedo,"
+                   "stderr,spread")
+    p.add_argument("--features", choices=["earth", "none"], default="earth",
+                   help="label the Earth's spectral features on the mean plot (default earth)")
     p.add_argument("--tsi", type=float, required=True, help="total solar irradiance at 1 AU, W/m2 (as SOLAR TSI)")
     p.add_argument("--sun-distance-au", type=float, required=True, help="distance of the body from the Sun, AU")
     p.add_argument("--distance-km", type=float, required=True, help="distance of the observer from the body, km")

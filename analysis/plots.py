@@ -142,3 +142,68 @@ def plot_time_wavelength(values, times_h, wavelengths_nm, path, *, label="relati
     ax.set_xlabel("wavelength [nm]")
     ax.set_ylabel(time_label)
     return _save(fig, path)
+
+
+def plot_time_wavelength_pair(values, times_h, wavelengths_nm, path, *, label="apparent albedo",
+                              time_label="time [h]"):
+    """Two time x wavelength maps side by side: the values (sequential colours) and their difference from the mean
+    over time at each wavelength (diverging colours about 0), the seed's Fig. 9b beside the absolute map."""
+    values = np.asarray(values, dtype=np.float64)
+    diff = values - values.mean(axis=0, keepdims=True)
+    fig, (a0, a1) = _figure(2, 6.0, 4.0)
+    xe, ye = _cell_edges(wavelengths_nm, 5.0), _cell_edges(times_h, 0.5)
+    vmin, vmax = float(np.nanmin(values)), float(np.nanmax(values))
+    if vmin == vmax:
+        vmin, vmax = vmin - 0.5 * (abs(vmin) or 1.0), vmax + 0.5 * (abs(vmax) or 1.0)
+    im0 = a0.pcolormesh(xe, ye, values, cmap="viridis", vmin=vmin, vmax=vmax, shading="flat")
+    fig.colorbar(im0, ax=a0, label=label)
+    lim = float(np.nanmax(np.abs(diff))) or 1.0
+    im1 = a1.pcolormesh(xe, ye, diff, cmap="RdBu_r", vmin=-lim, vmax=lim, shading="flat")
+    fig.colorbar(im1, ax=a1, label=f"{label} - its mean over time")
+    for ax, title in ((a0, label), (a1, "difference from the mean")):
+        ax.set_xlabel("wavelength [nm]")
+        ax.set_ylabel(time_label)
+        ax.set_title(title)
+    return _save(fig, path)
+
+
+def plot_mean_spectrum(wavelengths_nm, mean, path, *, stderr=None, spread=None, features=(), ylabel="apparent albedo",
+                       title=None):
+    """A mean spectrum with its Monte Carlo uncertainty band (+- 2 stderr, dark) and the spread over time (+- 1
+    standard deviation, light), and vertical labels at features: (wavelength_nm, text) pairs or
+    (lo_nm, hi_nm, text) bands."""
+    wl = np.asarray(wavelengths_nm, dtype=np.float64)
+    m = np.asarray(mean, dtype=np.float64)
+    fig, (ax,) = _figure(1, 10.0, 4.5)
+    if spread is not None:
+        s = np.asarray(spread, dtype=np.float64)
+        ax.fill_between(wl, m - s, m + s, color="tab:blue", alpha=0.15, lw=0, label="+-1 std over time")
+    if stderr is not None:
+        e = np.asarray(stderr, dtype=np.float64)
+        ax.fill_between(wl, m - 2 * e, m + 2 * e, color="tab:blue", alpha=0.45, lw=0,
+                        label="+-2 standard errors (Monte Carlo)")
+    ax.plot(wl, m, color="k", lw=0.9, label="mean over time")
+    hi = m + (2 * np.asarray(stderr, dtype=np.float64) if stderr is not None else 0.0)
+    if spread is not None:
+        hi = np.maximum(hi, m + np.asarray(spread, dtype=np.float64))
+    top = float(np.nanmax(hi)) or 1.0
+    ax.set_ylim(0.0, top * 1.32)
+    k = 0
+    for f in features:
+        if len(f) == 3:
+            lo, hi_, text = f
+            ax.axvspan(lo, hi_, color="0.88", zorder=0)
+            x = 0.5 * (lo + hi_)
+        else:
+            x, text = f
+            ax.axvline(x, color="0.6", lw=0.6, ls=":", zorder=0)
+        if wl.min() <= x <= wl.max():      # labels in two staggered rows so that neighbours do not overlap
+            ax.text(x, top * (1.30 if k % 2 == 0 else 1.17), text, rotation=90, ha="center", va="top", fontsize=6.5)
+            k += 1
+    ax.set_xlim(wl.min() - (5.0 if wl.min() == wl.max() else 0.0), wl.max() + (5.0 if wl.min() == wl.max() else 0.0))
+    ax.set_xlabel("wavelength [nm]")
+    ax.set_ylabel(ylabel)
+    if title:
+        ax.set_title(title)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=3, fontsize=7, frameon=False)
+    return _save(fig, path)

@@ -16,6 +16,7 @@ from .disk import apparent_albedo, lambert_sphere_flux
 __all__ = [
     "SpectraSeries", "SERIES_COLUMNS", "parse_time_tag", "format_time_utc", "read_spectra_series",
     "solar_band_irradiance", "series_apparent_albedo", "lambert_series_flux", "write_series_csv",
+    "series_mean_spectrum", "write_mean_csv", "EARTH_FEATURES",
 ]
 
 SPECTRUM_COLUMNS = ("wavelength_nm", "flux_W", "stderr_W")
@@ -212,6 +213,46 @@ def write_series_csv(path, series, albedo):
         for j, lam in enumerate(series.wavelengths_nm):
             out.append(f"{tt},{float(lam)!r},{float(series.flux_W[k, j])!r},{float(series.stderr_W[k, j])!r},"
                        f"{float(a[k, j])!r}")
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        tmp.write_text("\n".join(out) + "\n", encoding="utf-8")
+    return path
+
+
+# Features of a disk-integrated Earth spectrum (nm), labelled on the mean-spectrum figure: bands as (lo, hi, text),
+# single wavelengths as (x, text).  Band limits after the HITRAN band centres and the seed paper's Fig. 9.
+EARTH_FEATURES = (
+    (300.0, 340.0, "O3 Huggins"), (400.0, "Rayleigh (blue)"), (500.0, 680.0, "O3 Chappuis"),
+    (627.0, 633.0, "O2 gamma"), (686.0, 695.0, "O2 B"), (715.0, 735.0, "H2O"), (700.0, "red edge"),
+    (759.0, 771.0, "O2 A"), (810.0, 835.0, "H2O"), (890.0, 990.0, "H2O 0.94"), (1100.0, 1170.0, "H2O 1.13"),
+    (1260.0, 1275.0, "O2 1.27"), (1320.0, 1500.0, "H2O 1.38"), (1500.0, "ice 1.5"), (1640.0, "window 1.6"),
+    (1800.0, 1980.0, "H2O 1.87"), (2000.0, 2080.0, "CO2 2.0"), (2300.0, 2400.0, "CH4 2.3"),
+)
+
+
+def series_mean_spectrum(series, albedo):
+    """The mean over time of an apparent-albedo series per line, with the Monte Carlo standard error of that mean
+    (the hours' standard errors, independent runs: sqrt(sum se_t^2) / T, each converted to albedo by the hour's
+    albedo / flux) and the spread over time (standard deviation of the hourly values, ddof 1; 0 for one hour).
+
+    Signature: ``series_mean_spectrum(series, albedo) -> dict(mean, stderr, spread)``."""
+    a = np.asarray(albedo, dtype=np.float64)
+    if a.shape != series.flux_W.shape:
+        raise AnalysisError(f"albedo has shape {a.shape}, the series {series.flux_W.shape}")
+    f = series.flux_W
+    scale = np.divide(a, f, out=np.zeros_like(a), where=f != 0)
+    se_a = np.abs(scale) * series.stderr_W
+    t = a.shape[0]
+    return {"mean": a.mean(axis=0), "stderr": np.sqrt(np.sum(se_a ** 2, axis=0)) / t,
+            "spread": a.std(axis=0, ddof=1) if t > 1 else np.zeros(a.shape[1])}
+
+
+def write_mean_csv(path, wavelengths_nm, mean):
+    """``wavelength_nm,mean_apparent_albedo,stderr,spread`` per line, atomically. Returns the path."""
+    out = ["wavelength_nm,mean_apparent_albedo,stderr,spread"]
+    for j, lam in enumerate(np.asarray(wavelengths_nm, dtype=np.float64)):
+        out.append(f"{float(lam)!r},{float(mean['mean'][j])!r},{float(mean['stderr'][j])!r},"
+                   f"{float(mean['spread'][j])!r}")
     path = Path(path)
     with atomic_path(path) as tmp:
         tmp.write_text("\n".join(out) + "\n", encoding="utf-8")

@@ -568,7 +568,7 @@ class Engine:
                 argv.append(a)
                 continue
             name = a[len("\0path:"):]
-            if k > 0 and raw[k - 1] in ("--output", "--plot"):
+            if k > 0 and raw[k - 1] in ("--output", "--plot", "--mean-plot", "--mean-output"):
                 out = self.folder.output(name)
                 written.append(out)
                 argv.append(str(out))

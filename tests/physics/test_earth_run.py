@@ -78,7 +78,7 @@ def test_shipped_includes_are_what_the_generator_writes(tmp_path):
     lines = np.linspace(300.0, 2500.0, 295)
     files = write_earth_includes(tmp_path, lines, clamp=True)
     for name, p in files.items():
-        assert (EARTH.parent / "earth" / name).read_text() == p.read_text(), \
+        assert (EARTH.parent / "earth" / name).read_bytes() == p.read_bytes(), \
             f"examples_scripts/earth/{name} is stale: run python examples_scripts/earth/make_includes.py"
 
 
@@ -200,6 +200,8 @@ def test_outputs_and_provenance(pacific):
     assert (pacific / "rgb" / f"{tag}.png").stat().st_size > 0
     assert (pacific / "spectra" / f"{tag}.csv").exists()
     assert (pacific / "disk_spectra_time_wavelength.png").exists()
+    assert (pacific / "disk_spectrum_mean.png").stat().st_size > 0
+    assert (pacific / "disk_spectrum_mean.csv").read_text().startswith("wavelength_nm,mean_apparent_albedo,stderr,")
     import h5py
 
     for which in ("toa", "pupil"):
@@ -229,6 +231,21 @@ def test_blue_disk_and_albedo_in_the_epoxi_range(pacific):
     assert a450 - a550 > 3 * math.hypot(e450, e550), (a450, e450, a550, e550)
     vis, evis = band_mean(s, 450, 650)
     assert EPOXI_APPARENT[0] + 5 * evis <= vis <= EPOXI_APPARENT[1] - 5 * evis, (vis, evis)
+
+
+def test_o2_a_band_and_ice_water_absorption_in_the_disk_spectrum(pacific):
+    """Issue 16: the O2 A band line (763.9 nm: gas per line, docs/earth.md) lies below its neighbours 15 nm away,
+    and the disk is darker at 2.1-2.2 um than at 550 nm (ice and liquid water absorb); one-sided claims decided at
+    3 standard errors of the difference (with 2000 rays the A band stands about 8 of them below, the 2.2 um
+    deficit about 10)."""
+    s = next(iter(spectra(pacific).values()))
+    a, e = s[:, 3], s[:, 3] * s[:, 2] / s[:, 1]
+    j = int(np.argmin(abs(s[:, 0] - 763.9)))
+    side = 0.5 * (a[j - 2] + a[j + 2])
+    assert side - a[j] > 3 * math.hypot(e[j], 0.5 * math.hypot(e[j - 2], e[j + 2])), (a[j - 2:j + 3], e[j - 2:j + 3])
+    a550, e550 = band_mean(s, 500, 600)
+    a2200, e2200 = band_mean(s, 2100, 2250)
+    assert a550 - a2200 > 3 * math.hypot(e550, e2200), (a550, e550, a2200, e2200)
 
 
 def test_same_seed_same_images(tmp_path):
