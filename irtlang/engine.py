@@ -380,11 +380,12 @@ class Engine:
         best[a] = ref[a] + pa + s
         best[tr] = ref[tr] + xm + um * s
         s *= sgn   # s above is a shift of the axis coordinate; report it along the rays' direction of travel
-        where = "after" if s > 0 else "before"
-        self.out(f"FOCUS: best focus at X {best[0] / f:.9g}, Y {best[1] / f:.9g}, Z {best[2] / f:.9g} {unit}: "
-                 f"{abs(s) / f:.6g} {unit} {where} the rays' end points along their direction of travel "
-                 f"({'+-'[sgn < 0]}{'XYZ'[a]}); RMS radius {rms / f:.6g} {unit} there, {rms0 / f:.6g} {unit} at the "
-                 f"end points; {int(m.sum()):,} rays")
+        where = "beyond" if s > 0 else "short of"
+        self.out(f"FOCUS: best focus {s / f:+.9g} {unit} along {'+-'[sgn < 0]}{'XYZ'[a]} from the rays' end points "
+                 f"(RMS radius {rms / f:.6g} {unit} there, {rms0 / f:.6g} {unit} at the end points; "
+                 f"{int(m.sum()):,} rays)\n"
+                 f"  best-focus position X {best[0] / f:.9g}, Y {best[1] / f:.9g}, Z {best[2] / f:.9g} {unit}: "
+                 f"{abs(s) / f:.6g} {unit} {where} the rays' end points, along the light")
         interp.assign("FOCUS_SHIFT", Quantity(s, LENGTH), step.span)
         interp.assign("FOCUS_RMS", Quantity(rms, LENGTH), step.span)
         for k, ax_name in enumerate("XYZ"):

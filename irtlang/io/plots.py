@@ -51,7 +51,8 @@ def path_layout(path: Path, shown, objects: dict, unit: str) -> None:
         ax.set_ylabel(f"{'XYZ'[v]} ({unit})")
         ax.set_aspect("equal", adjustable="datalim")
         ax.grid(alpha=0.3)
-    axes[0][0].legend(fontsize=7, loc="best")
+    if axes[0][0].get_legend_handles_labels()[0]:
+        axes[0][0].legend(fontsize=7, loc="best")
     fig.suptitle("leading paths: objects in path order (lines through their centres), rays' end points (dots)",
                  fontsize=9)
     _save(fig, path)

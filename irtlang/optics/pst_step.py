@@ -61,12 +61,12 @@ def run_pst(eng, step, interp) -> None:
         P = float(res.ledger[res.packed.n_rows - 4, 0].sum())
         flux, se = res.flux_on(oi)
         ext = res.packed.d_ext[res.packed.detector_names.index(obj.name)]
-        a_det = abs((ext[1] - ext[0]) * (ext[3] - ext[2]))
+        a_det = float(abs((ext[1] - ext[0]) * (ext[3] - ext[2])))
         # tilt of the beam from the grid's axis (FIELD: tan of the angles along x and y)
         cos_t = math.cos(th)
         e_in = P / (a_grid * cos_t) if P > 0 else 0.0
         k = 1.0 / (a_det * e_in) if e_in > 0 else 0.0
-        rows.append((math.degrees(th), flux * k, float(se) * k, flux, float(se)))
+        rows.append((float(math.degrees(th)), float(flux * k), float(se) * k, float(flux), float(se)))
     eng.folder.info["rays_traced"] = eng.rays_traced
     lines = ["angle_deg,pst,stderr,flux_W,flux_stderr_W"] + [f"{a!r},{p!r},{e!r},{fl!r},{fe!r}"
                                                               for a, p, e, fl, fe in rows]
