@@ -27,34 +27,34 @@ def _save(fig, path: Path, dpi=110) -> None:
         fig.savefig(tmp, dpi=dpi, format="png")
 
 
-def path_layout(path: Path, shown, objects: dict, unit: str) -> None:
-    """shown: [(label, flux, centres (k, 3), end points (n, 3))]; objects: name -> centre (3,).  Two views (the two
-    planes that hold the most spread of the objects and end points), equal axes."""
-    pts = [c for c in objects.values()] + [e for _, _, _, ends in shown for e in ends[:200]]
-    allp = np.array(pts) if pts else np.zeros((1, 3))
-    spread = allp.max(0) - allp.min(0)
-    order = np.argsort(-spread)
-    views = [(int(order[2]), int(order[0])), (int(order[1]), int(order[0]))]  # (horizontal, vertical) axes
-    fig, axes = _figure(1, 2, 5.5, 5.0)
-    for ax, (h, v) in zip(axes[0], views):
-        for name, c in objects.items():
-            ax.plot(c[h], c[v], "ks", ms=5)
-            ax.annotate(name, (c[h], c[v]), textcoords="offset points", xytext=(4, 4), fontsize=8)
-        for k, (label, flux, centres, ends) in enumerate(shown):
-            col = COLORS[k % len(COLORS)]
-            if len(ends):
-                ax.plot(ends[:, h], ends[:, v], ".", color=col, ms=2, alpha=0.4)
-            if len(centres):
-                ax.plot(centres[:, h], centres[:, v], "-", color=col, lw=2.5 - 0.3 * k, alpha=0.8,
-                        label=f"{k + 1}. {label} ({flux:.3g} W)")
-        ax.set_xlabel(f"{'XYZ'[h]} ({unit})")
-        ax.set_ylabel(f"{'XYZ'[v]} ({unit})")
-        ax.set_aspect("equal", adjustable="datalim")
-        ax.grid(alpha=0.3)
-    if axes[0][0].get_legend_handles_labels()[0]:
-        axes[0][0].legend(fontsize=7, loc="best")
-    fig.suptitle("leading paths: objects in path order (lines through their centres), rays' end points (dots)",
-                 fontsize=9)
+def path_layout(path: Path, shown, unit: str, frame_name: str) -> None:
+    """shown: [(label, flux, fraction, x (n,), y (n,))] for the leading paths.  Left: each path's flux (log scale,
+    labelled with its object sequence); right: where its rays end, in the detector's local frame (equal axes)."""
+    fig, axes = _figure(1, 2, 6.0, 4.8)
+    ax0, ax1 = axes[0]
+    n = len(shown)
+    fl = [max(fx, 1e-300) for _, fx, _, _, _ in shown]
+    ax0.barh(range(n), fl, color=[COLORS[k % len(COLORS)] for k in range(n)])
+    ax0.set_xscale("log")
+    ax0.set_yticks(range(n))
+    ax0.set_yticklabels([f"{k + 1}" for k in range(n)])
+    ax0.invert_yaxis()
+    for k, (label, fx, frac, _, _) in enumerate(shown):
+        ax0.annotate(f" {label}  ({frac:.3g})", (min(fl), k), xytext=(2, 0), textcoords="offset points",
+                     va="center", fontsize=7)
+    ax0.set_xlabel("flux (W)")
+    ax0.set_ylabel("path rank")
+    ax0.set_title("leading paths (fraction of the total); R reflect, T transmit, S scatter, A absorb", fontsize=8)
+    for k, (label, fx, frac, x, y) in enumerate(shown):
+        if len(x):
+            ax1.plot(x, y, ".", color=COLORS[k % len(COLORS)], ms=3, alpha=0.6, label=f"{k + 1}")
+    ax1.set_aspect("equal", adjustable="datalim")
+    ax1.set_xlabel(f"x on {frame_name} ({unit})")
+    ax1.set_ylabel(f"y on {frame_name} ({unit})")
+    ax1.set_title("where each path's rays end (detector frame)", fontsize=9)
+    ax1.grid(alpha=0.3)
+    if ax1.get_legend_handles_labels()[0]:
+        ax1.legend(fontsize=7, title="path", markerscale=3)
     _save(fig, path)
 
 

@@ -43,41 +43,35 @@ def run_paths(eng, step, interp) -> None:
     if f:
         eng._write_text(f, "\n".join(lines) + "\n", "paths")
         plot = f.rsplit(".", 1)[0] + "_layout.png"
-        _layout(eng, rows, names, plot)
+        _layout(eng, rows, names, total, plot)
 
 
 def _csv(text: str) -> str:
     return '"' + text.replace('"', '""') + '"' if ("," in text or '"' in text) else text
 
 
-def _layout(eng, rows, names, rel) -> None:
-    """A layout of the leading paths (at most 6): the objects (their bounding-sphere centres, labelled), each path
-    drawn through the centres of the objects it met in order, and the end points of its rays, in two views."""
+def _layout(eng, rows, names, total, rel) -> None:
+    """The leading paths (at most 8): their fluxes, and where their rays end in the frame of the object most of
+    them end on (the detector).  The records hold each path's end point only (docs/tracer.md), not the points
+    between, so the figure shows the footprints, not the paths' segments."""
     from ..io.plots import path_layout
+    from .spots import detector_frame, local_xy
 
-    centres = _object_centres(eng)
     r = eng.result.records
     unit, f = eng._lu()
+    objs = r["object"][np.any([row[5] for row in rows[:8]], axis=0)] if rows else np.zeros(0, int)
+    det = int(np.bincount(objs[objs >= 0]).argmax()) if (objs >= 0).any() else -1
+    frame = detector_frame(eng.result.packed, det) if det >= 0 else None
     shown = []
-    for path, events, flux, se, count, mask in rows[:6]:
-        seq = [nm.strip() for nm in path.split(" > ")]
-        pts = [centres[names.index(nm)] / f for nm in seq if nm in names and centres.get(names.index(nm)) is not None]
-        ends = r["position"][mask] / f
-        if len(ends) > 2000:
-            ends = ends[np.linspace(0, len(ends) - 1, 2000).astype(int)]
-        shown.append((path, flux, np.array(pts) if pts else np.zeros((0, 3)), ends))
-    objs = {names[o]: c / f for o, c in centres.items() if c is not None}
+    for path, events, flux, se, count, mask in rows[:8]:
+        pos = r["position"][mask]
+        if len(pos) > 3000:
+            pos = pos[np.linspace(0, len(pos) - 1, 3000).astype(int)]
+        x, y = local_xy(pos, frame)
+        ev = events.split(" > ")
+        label = " > ".join(f"{o}({e[:1].upper()})" if e and e != "..." else o
+                           for o, e in zip(path.split(" > "), ev + [""] * len(path.split(" > "))))
+        shown.append((label, flux, flux / total if total else 0.0, x / f, y / f))
     p = eng.folder.output(rel)
-    path_layout(p, shown, objs, unit)
+    path_layout(p, shown, unit, names[det] if det >= 0 and frame is not None else "the world's x, y")
     eng.folder.record(p, "paths")
-
-
-def _object_centres(eng) -> dict:
-    """Object index -> world centre of its bounding sphere (None when unbounded or unknown)."""
-    pk = eng.result.packed
-    if not hasattr(pk, "s_kind"):
-        return {}
-    from ..tracer import _object_bounds
-
-    bc, br = _object_bounds(pk)
-    return {o: (bc[o] if np.isfinite(br[o]) else None) for o in range(len(pk.object_names))}
