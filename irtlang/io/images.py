@@ -111,11 +111,14 @@ def _png(path: Path, img, extent, length_unit) -> None:
     total = img.sum(axis=0)
     fig, ax = plt.subplots(figsize=(5, 4.2), dpi=120)
     kw = {}
-    if extent is not None:
+    if extent is not None:   # the detector's local x, y (or the WINDOW's axes), equal scales
         kw["extent"] = extent
         ax.set_xlabel(f"x ({length_unit})")
         ax.set_ylabel(f"y ({length_unit})")
-    im = ax.imshow(total, origin="lower", cmap="inferno", aspect="auto", **kw)
+    else:
+        ax.set_xlabel("column (pixel)")
+        ax.set_ylabel("row (pixel)")
+    im = ax.imshow(total, origin="lower", cmap="inferno", aspect="equal", **kw)
     fig.colorbar(im, ax=ax, label="flux per pixel (W)")
     fig.tight_layout()
     with atomic_path(path) as tmp:

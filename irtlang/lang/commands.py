@@ -879,7 +879,7 @@ def _stats(it, b, st):
         raise error(b.spans["kw:TOP"], "TOP applies to STATS PATHS", "STATS PATHS 'paths.csv' TOP 10")
     # results as variables (docs/language.md, section 17); a check run has no rays, so there they hold 0
     if what == "PATHS":
-        for var in ("PATHS_TOP_FLUX", "PATHS_TOP_FLUX_SE", "PATHS_FLUX"):
+        for var in ("PATHS_TOP_FLUX", "PATHS_TOP_FLUX_SE", "PATHS_SECOND_FLUX", "PATHS_SECOND_FLUX_SE", "PATHS_FLUX"):
             it.assign(var, Quantity(0.0, POWER), b.span)
         it.assign("PATHS_TOP_FRACTION", Quantity(0.0, NONE), b.span)
         it.assign("PATHS_COUNT", Quantity(0.0, NONE), b.span)

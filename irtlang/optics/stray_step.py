@@ -37,6 +37,8 @@ def run_paths(eng, step, interp) -> None:
     interp.assign("PATHS_TOP_FLUX_SE", Quantity(rows[0][3] if rows else 0.0, POWER), step.span)
     interp.assign("PATHS_TOP_FRACTION", Quantity(top_flux / total if total else 0.0), step.span)
     interp.assign("PATHS_TOP", rows[0][0] if rows else "", step.span)
+    interp.assign("PATHS_SECOND_FLUX", Quantity(rows[1][2] if len(rows) > 1 else 0.0, POWER), step.span)
+    interp.assign("PATHS_SECOND_FLUX_SE", Quantity(rows[1][3] if len(rows) > 1 else 0.0, POWER), step.span)
     interp.assign("PATHS_FLUX", Quantity(total, POWER), step.span)
     interp.assign("PATHS_COUNT", Quantity(float(n_paths)), step.span)
     f = step.params.get("file")
