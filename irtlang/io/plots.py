@@ -92,8 +92,7 @@ def spot_diagram(path: Path, panels, *, nrows, ncols, scale_um, airy_um=None, ti
         lines = pnl["lines_nm"]
         for q in np.unique(pnl["line"]):
             m = pnl["line"] == q
-            ax.plot(pnl["x_um"][m], pnl["y_um"][m], ".", ms=1.5, color=COLORS[int(q) % len(COLORS)],
-                    label=f"{lines[int(q)]:g} nm" if k == 0 else None, rasterized=True)
+            ax.plot(pnl["x_um"][m], pnl["y_um"][m], ".", ms=1.5, color=COLORS[int(q) % len(COLORS)], rasterized=True)
         if airy_um is not None:
             for q, r in enumerate(np.atleast_1d(airy_um)):
                 if r > 0 and (pnl["line"] == q).any():
@@ -113,7 +112,11 @@ def spot_diagram(path: Path, panels, *, nrows, ncols, scale_um, airy_um=None, ti
         if k // ncols == nrows - 1 or k + ncols >= len(panels):
             ax.set_xlabel("x (um)", fontsize=8)
     if len(panels) and panels[0] is not None and len(panels[0]["lines_nm"]) > 1:
-        axes[0][0].legend(fontsize=6, loc="upper right", markerscale=4)
+        from matplotlib.lines import Line2D
+
+        lines = panels[0]["lines_nm"]
+        fig.legend([Line2D([], [], ls="", marker="o", color=COLORS[q % len(COLORS)]) for q in range(len(lines))],
+                   [f"{lam:g} nm" for lam in lines], loc="outside lower center", ncols=len(lines), fontsize=8)
     if title:
         fig.suptitle(title, fontsize=9)
     _save(fig, path)
