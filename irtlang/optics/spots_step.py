@@ -49,7 +49,7 @@ def run_spot_diagram(eng, step, interp) -> None:
     saved = eng.result
     about = step.params.get("about") or "CENTROID"
     through, steps = step.params.get("through"), step.params.get("steps")
-    shifts = list(np.linspace(-through, through, steps)) if through else [0.0]
+    shifts = [float(v) for v in np.linspace(-through, through, steps)] if through else [0.0]
     unit, f = eng._lu()
     panels, rows_csv, summary = [], [], []
     lines_nm = None
