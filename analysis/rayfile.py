@@ -78,6 +78,8 @@ class RayFile:
     event_kinds: np.ndarray | None = None
     start: np.ndarray | None = None
     ledger: dict | None = None
+    #: optional: each object's frame (K, 4, 3): origin (length_unit), local x, local y, normal (world)
+    object_frames: np.ndarray | None = None
 
     @property
     def n_rays(self):
@@ -152,6 +154,11 @@ def read_rays(path):
                     if arr.shape != shape:
                         raise AnalysisError(f"{path}: /rays/{col} has shape {arr.shape}, expected {shape}")
                     setattr(out, col, arr)
+        if "object_frames" in fh:
+            fr = np.asarray(fh["object_frames"][()], np.float64)
+            if fr.shape != (len(objects), 4, 3):
+                raise AnalysisError(f"{path}: /object_frames has shape {fr.shape}, expected ({len(objects)}, 4, 3)")
+            out.object_frames = fr
         if "ledger" in fh:
             g = fh["ledger"]
             rows = [o.decode("utf-8") if isinstance(o, bytes) else str(o) for o in g["rows"][()]]
@@ -178,7 +185,8 @@ def read_rays(path):
 def write_rays_v1(path, *, wavelengths_nm, objects=(), position=None, direction=None, flux=None, line=None,
                   source=None, object=None, events=None, flags=None, history=None, detectors=None,
                   length_unit="mm", seed=0, script_sha256="", data_tier="none", rays_traced=0,
-                  irtlang_version=None, created_utc=None, event_kinds=None, start=None, ledger=None):
+                  irtlang_version=None, created_utc=None, event_kinds=None, start=None, ledger=None,
+                  object_frames=None):
     """Reference writer of a schema-1 ray file, atomic (temporary file in the same folder, then ``os.replace``).
 
     Signature: ``write_rays_v1(path, *, wavelengths_nm, objects=(), position=None, direction=None, flux=None,
@@ -235,6 +243,8 @@ def write_rays_v1(path, *, wavelengths_nm, objects=(), position=None, direction=
                     grp.create_dataset("event_kinds", data=np.asarray(event_kinds, np.int8).reshape(columns["history"].shape))
                 if start is not None:
                     grp.create_dataset("start", data=np.asarray(start, np.float64).reshape(-1, 2))
+            if object_frames is not None:
+                fh.create_dataset("object_frames", data=np.asarray(object_frames, np.float64).reshape(-1, 4, 3))
             if ledger is not None:
                 g = fh.create_group("ledger")
                 g.create_dataset("rows", data=list(ledger["rows"]), dtype=h5py.string_dtype())

@@ -572,6 +572,14 @@ class Engine:
             hist, kinds = np.full((int(m.sum()), 1), -1, np.int32), None
         start = r.get("start")
         extra = {"event_kinds": kinds, "start": start[m] / f if start is not None else None}
+        if hasattr(self.result.packed, "s_obj"):   # each object's frame (its first surface): origin, x, y, normal
+            from .optics.spots import detector_frame
+
+            frames = []
+            for o in range(len(self.result.packed.object_names)):
+                fr = detector_frame(self.result.packed, o)
+                frames.append(np.array([fr[0] / f, fr[1], fr[2], fr[3]]) if fr is not None else np.full((4, 3), np.nan))
+            extra["object_frames"] = np.array(frames).reshape(-1, 4, 3)
         if getattr(self.result, "ledger", None) is not None:
             extra["ledger"] = {"rows": list(self.result.rows), "values": self.result.ledger,
                                "sum_sq": self.result.ledger_sq}
@@ -669,7 +677,8 @@ class Engine:
         unit, _ = self._lu()
         lines = (self.result.packed.lines_nm if per_line and img.shape[0] == len(self.result.packed.lines_nm)
                  else None)
-        for q in write_image(p, img, sum2=sum2, extent=extent, wavelengths_nm=lines, length_unit=unit):
+        for q in write_image(p, img, sum2=sum2, extent=extent, wavelengths_nm=lines, length_unit=unit,
+                             n_traced=self.result.n_traced, psf=kind == "psf"):
             self.folder.record(q, kind)
 
 

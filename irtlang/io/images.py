@@ -15,11 +15,19 @@ from .atomic import atomic_path, write_bytes, write_text
 
 
 def write_image(path: Path, img: np.ndarray, *, sum2=None, extent=None, wavelengths_nm=None,
-                length_unit: str = "mm") -> list[Path]:
+                length_unit: str = "mm", n_traced: int | None = None, psf: bool = False) -> list[Path]:
+    """`sum2`: the per-source-ray squared sums; the standard error is the tracer's (the same as every printed
+    total's) when `n_traced` is given, else sqrt(sum2).  `psf`: a normalized PSF (energy fraction per pixel),
+    labelled as such (PNG colour bar, CSV column, FITS BUNIT)."""
     path = Path(path)
     ext = path.suffix.lower()
     img = np.asarray(img, np.float64)
-    stderr = np.sqrt(np.asarray(sum2, np.float64)) if sum2 is not None else None
+    if sum2 is not None and n_traced:
+        from ..tracer import standard_error
+
+        stderr = np.asarray(standard_error(img, np.asarray(sum2, np.float64), int(n_traced)), np.float64)
+    else:
+        stderr = np.sqrt(np.asarray(sum2, np.float64)) if sum2 is not None else None
     written = [path]
     if ext == ".npy":
         with atomic_path(path) as tmp:
@@ -32,12 +40,14 @@ def write_image(path: Path, img: np.ndarray, *, sum2=None, extent=None, waveleng
                     np.save(fh, stderr)
             written.append(sp)
     elif ext in (".fits", ".fit"):
-        write_bytes(path, fits_bytes(img, stderr, extent, wavelengths_nm, length_unit))
+        write_bytes(path, fits_bytes(img, stderr, extent, wavelengths_nm, length_unit, bunit="" if psf else "W"))
     elif ext == ".png":
-        _png(path, img, extent, length_unit)
+        _png(path, img, extent, length_unit, label="normalized PSF (energy fraction per pixel)" if psf
+             else "flux per pixel (W)")
     elif ext == ".csv":
         buf = io.StringIO()
-        buf.write("line,wavelength_nm,row,col,flux_W" + (",stderr_W" if stderr is not None else "") + "\n")
+        buf.write("line,wavelength_nm,row,col," + ("psf_fraction" if psf else "flux_W")
+                  + (",stderr_W" if stderr is not None else "") + "\n")
         L, ny, nx = img.shape
         for k in range(L):
             lam = wavelengths_nm[k] if wavelengths_nm is not None else float("nan")
@@ -76,11 +86,11 @@ def _data(a: np.ndarray) -> bytes:
     return raw + b"\0" * (-len(raw) % 2880)
 
 
-def fits_bytes(img, stderr, extent, wavelengths_nm, length_unit) -> bytes:
+def fits_bytes(img, stderr, extent, wavelengths_nm, length_unit, bunit: str = "W") -> bytes:
     """A FITS file (primary image, optional STDERR extension) by the FITS 4.0 standard, no dependencies."""
     L, ny, nx = img.shape
     cards = [_card("SIMPLE", True), _card("BITPIX", -64), _card("NAXIS", 3), _card("NAXIS1", nx),
-             _card("NAXIS2", ny), _card("NAXIS3", L), _card("EXTEND", True), _card("BUNIT", "W"),
+             _card("NAXIS2", ny), _card("NAXIS3", L), _card("EXTEND", True), _card("BUNIT", bunit),
              _card("ORIGIN", "irtlang")]
     if extent is not None:
         x0, x1, y0, y1 = extent
@@ -102,7 +112,7 @@ def fits_bytes(img, stderr, extent, wavelengths_nm, length_unit) -> bytes:
     return out
 
 
-def _png(path: Path, img, extent, length_unit) -> None:
+def _png(path: Path, img, extent, length_unit, label: str = "flux per pixel (W)") -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -119,7 +129,7 @@ def _png(path: Path, img, extent, length_unit) -> None:
         ax.set_xlabel("column (pixel)")
         ax.set_ylabel("row (pixel)")
     im = ax.imshow(total, origin="lower", cmap="inferno", aspect="equal", **kw)
-    fig.colorbar(im, ax=ax, label="flux per pixel (W)")
+    fig.colorbar(im, ax=ax, label=label)
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png")
