@@ -240,7 +240,6 @@ class Engine:
             self.out(f"{label}: no rays selected")
             return
         if not what:   # the selected rays' flux on each object they ended on
-            keys = self._keys()
             names = list(self.result.packed.object_names)
             objs = r["object"][m]
             lines = [f"STATS: {n:,} rays selected, flux {tot:.6g} W +- {se:.2g}"]
@@ -257,7 +256,6 @@ class Engine:
                 text = "object,rays,flux_W,stderr_W\n" + "".join(f"{a},{b},{c!r},{d!r}\n" for a, b, c, d in rows)
                 text += f"total,{n},{tot!r},{se!r}\n"
                 self._write_text(step.params["file"], text, "stats")
-            del keys
             return
         ref, vec = self._rel_positions(m) if what == "POSITION" else (np.zeros(3), r["direction"][m])
         vec = vec / f if what == "POSITION" else vec
@@ -756,11 +754,6 @@ def _pred_objects(pred) -> list:
     if pred[0] == "not":
         return _pred_objects(pred[1])
     return [] if pred[0] == "WAVELENGTH" else list(pred[1])
-
-
-def _se(w, n):
-    """Standard error of the total of per-path fluxes w over n source rays."""
-    return float(standard_error(w.sum(), (w * w).sum(), n))
 
 
 def _se_rows(res):
