@@ -329,10 +329,25 @@ class Engine:
         scale = f if step.params["what"] == "POSITION" else 1.0
         lab = unit if step.params["what"] == "POSITION" else "(direction cosine)"
         geo = math.sqrt(float(((x - (cx - ox)) ** 2 + (y - (cy - oy)) ** 2).max()))
+        local = ""
+        if step.params["what"] == "POSITION":   # the centroid in the frame of the object most rays ended on
+            from .optics.spots import detector_frame
+
+            objs = r["object"][m]
+            det = int(np.bincount(objs[objs >= 0]).argmax()) if (objs >= 0).any() else -1
+            fr = detector_frame(self.result.packed, det) if det >= 0 else None
+            if fr is not None:
+                c3 = np.zeros(3)
+                c3[ax[0]], c3[ax[1]] = cx, cy
+                c3[[i for i in range(3) if i not in ax][0]] = float(r["position"][m][:, [i for i in range(3)
+                                                                                        if i not in ax][0]].mean())
+                lx, ly = float((c3 - fr[0]) @ fr[1]), float((c3 - fr[0]) @ fr[2])
+                local = (f"; on {self.result.packed.object_names[det]} (its local x, y): centroid "
+                         f"{lx / f:.9g}, {ly / f:.9g} {unit}")
         self.out(f"SPOTS {step.params['what']}: {int(m.sum()):,} rays, {tot:.6g} W +- {self._se_of(m):.2g}"
                  f" ({inside.mean():.1%} in the window); centroid {'XYZ'[ax[0]]} {cx / scale:.9g}, "
                  f"{'XYZ'[ax[1]]} {cy / scale:.9g} {lab}; rms radius {rms / scale:.6g} {lab}, geo radius "
-                 f"{geo / scale:.6g} {lab}")
+                 f"{geo / scale:.6g} {lab}{local}")
         dim = LENGTH if step.params["what"] == "POSITION" else None
         for var, v in (("SPOTS_RMS", rms), ("SPOTS_GEO", geo), ("SPOTS_X", cx), ("SPOTS_Y", cy)):
             interp.assign(var, Quantity(float(v), dim), step.span)
