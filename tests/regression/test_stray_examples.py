@@ -95,3 +95,17 @@ def test_spot_diagrams_and_paraxial_report(tmp_path, capsys):
         assert abs(float(r["geo_um"]) - abs(dz) * 1e3 * 300 / (2 * 10500)) < 0.02 + 0.01 * abs(dz) * 1e3 / 70
     for png in ("spots_field.png", "spots_chief.png", "through_focus.png"):
         assert (out / png).stat().st_size > 20000
+
+
+def test_ghost_rays_read_again(tmp_path, capsys):
+    """examples_scripts/data/ghost_rays_4.h5 is ghost_filter.inr's ghost rays (R = 4 %) with the trace's ledger."""
+    out, text = _run("ghost_reload", tmp_path, capsys)
+    assert "LOAD RAYS: 589 rays on 3 objects (front_4, back_4, det_4)" in text and "does not hold" not in text
+    paths = _rows(out / "ghost_paths.csv")
+    assert paths[0]["events"] == "transmit > reflect > reflect > transmit > absorb"
+    led = {r["object"]: float(r["incident_W"]) for r in _rows(out / "ledger.csv")}
+    ghost, se = float(paths[0]["flux_W"]), float(paths[0]["stderr_W"])
+    image = led["det_4"] - float(paths[-1]["flux_W"])          # the ledger holds every ray; the file the ghosts
+    assert abs(ghost / image - 0.04 ** 2) < 5 * se / image
+    stats = _rows(out / "ghost_stats.csv")
+    assert math.isclose(float(stats[-1]["flux_W"]), float(paths[-1]["flux_W"]), rel_tol=1e-12)
