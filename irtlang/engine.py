@@ -425,6 +425,13 @@ class Engine:
             return
         if dkind == "POSITION" and dpar.get("converge"):
             return
+        if dkind == "DIRECTION":   # on axis only: along the grid's axis (no group rotation in between)
+            ax_i = "XYZ".index(g["axis"])
+            dvec = np.asarray(dpar["direction"], float)
+            if src.group is not None or abs(abs(dvec[ax_i]) - 1.0) > 1e-12:
+                return
+        if dkind not in ("FIELD", "DIRECTION", "POSITION"):
+            return
         w = r["flux"][m]
         h = np.hypot(r["start"][m, 0], r["start"][m, 1])
         par = paraxial(h, r["direction"][m], r["position"][m] + (r["position_lo"][m] if r.get("position_lo") is not None
@@ -460,7 +467,7 @@ class Engine:
         if dkind == "POSITION":
             pos = np.array(dpar["point"], float) if "point" in dpar else None
             ax = "XYZ".index(g["axis"])
-            if pos is not None:
+            if pos is not None and abs(pos[ax] - g["position"]) > 0:
                 L = abs(pos[ax] - g["position"])
                 # sin u = h / L near the axis; sin u' = h / efl: m = u / u' (negative: a real, inverted image)
                 mag = -(efl / L) if real else efl / L

@@ -212,3 +212,40 @@ def test_pst_of_an_ideal_baffle_is_the_single_scatter_integral(tmp_path, capsys)
     v = _rows(out / "pst_vars.csv")
     assert math.isclose(float(v[0]["PST_LAST"]), float(rows[-1]["pst"]), rel_tol=1e-9)
     assert (out / "pst.png").stat().st_size > 10000
+
+
+# ------------------------------------------------------------------------------------ paraxial report
+PARAXIAL = """SURFACE
+  CONIC Z 0 RADIUS 200 CONIC CK DISK 30
+OBJECT mirror
+  INTERFACE REFLECT
+SURFACE
+  PLANE Z ZD RECT 2 2
+OBJECT det
+GRID DISK Z 150 10 RAYS 2000
+SOURCE SRC
+TRACE
+CONSIDER ONLY det
+SELECT HIT(mirror)                  !! not the rays that meet the detector's back on their way in
+FOCUS
+SELECT ALL
+APPEND 'paraxial.csv' FOCUS_EFL FOCUS_BFL FOCUS_FNUM FOCUS_MAG FOCUS_Z
+CONSIDER ALL
+"""
+
+
+def test_paraxial_report_closed_forms(tmp_path, capsys):
+    """A paraboloid (R = 200 mm) from infinity: EFL = BFL = R / 2 = 100 mm, f/5 for a 20 mm pupil, m = 0, focus at
+    z = 100.  A sphere (R = 200 mm) with the point source at its centre of curvature images it onto itself:
+    m = -1, BFL = R, focus at z = 200 (the report gives no EFL for a finite conjugate)."""
+    text = (PARAXIAL.replace("CK", "-1").replace("ZD", "100").replace("SRC", "FIELD 0 0")
+            + PARAXIAL.replace("CK", "0").replace("ZD", "200").replace("SRC", "POSITION 0 0 200")
+            .replace("SURFACE", "SYSTEM NEW\nSURFACE", 1))
+    out, log = _run(tmp_path, "paraxial", text, capsys)
+    (a, b) = _rows(out / "paraxial.csv")
+    assert abs(float(a["FOCUS_EFL (mm)"]) - 100) < 1e-6 and abs(float(a["FOCUS_BFL (mm)"]) - 100) < 1e-6
+    assert abs(float(a["FOCUS_FNUM"]) - 100 / 20) < 0.05          # the lattice's outermost ray: D = 19.9.. mm
+    assert float(a["FOCUS_MAG"]) == 0 and abs(float(a["FOCUS_Z (mm)"]) - 100) < 1e-6
+    assert abs(float(b["FOCUS_MAG"]) + 1) < 1e-5 and abs(float(b["FOCUS_BFL (mm)"]) - 200) < 1e-6
+    assert abs(float(b["FOCUS_Z (mm)"]) - 200) < 1e-6
+    assert "magnification -1" in log and "magnification 0 (object at infinity)" in log
