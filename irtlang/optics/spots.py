@@ -16,6 +16,8 @@ import math
 
 import numpy as np
 
+from ..lang.units import LENGTH, Quantity
+
 
 def detector_frame(pk, obj_index: int):
     """(origin (3,), x axis, y axis, normal) of an object's first surface in world coordinates, or None."""
@@ -100,3 +102,86 @@ def paraxial(h, d, p, w, axis):
     zc, *_ = np.linalg.lstsq(B, z, rcond=None)
     z0 = float(zc[0] + c0 @ axis)
     return efl, z0, efl / (2 * h.max())
+
+
+def paraxial_report(eng, step, interp, m, axis) -> None:
+    """FOCUS's paraxial report (irtlang/optics/spots.py) for the last TRACE's one on-axis source: EFL, BFL,
+    f-number, magnification."""
+    last = getattr(eng, "last_trace", None)
+    r = eng.result.records
+    if last is None or eng.result is None or r.get("start") is None or len(last[0].sources) != 1:
+        return
+    src = last[0].sources[0]
+    if "+" not in src.kind:
+        return
+    dkind = src.kind.split("+")[1]
+    dpar = src.params["direction"]
+    g = src.params["grid"]
+    if dkind == "FIELD" and (dpar["angle_x"] or dpar["angle_y"]):
+        eng.out("FOCUS: no paraxial report for an off-axis field (trace the axial field: SOURCE FIELD 0 0)")
+        return
+    if dkind == "POSITION" and dpar.get("converge"):
+        return
+    if dkind == "DIRECTION":   # on axis only: along the grid's axis (no group rotation in between)
+        ax_i = "XYZ".index(g["axis"])
+        dvec = np.asarray(dpar["direction"], float)
+        if src.group is not None or abs(abs(dvec[ax_i]) - 1.0) > 1e-12:
+            return
+    if dkind not in ("FIELD", "DIRECTION", "POSITION"):
+        return
+    w = r["flux"][m]
+    h = np.hypot(r["start"][m, 0], r["start"][m, 1])
+    par = paraxial(h, r["direction"][m], r["position"][m] + (r["position_lo"][m] if r.get("position_lo") is not None
+                                                             else 0.0), w, axis)
+    if par is None:
+        return
+    efl, z0, fnum = par
+    unit, f = eng._lu()
+    # the last surface before the detector: the most frequent second-to-last object of the rays' histories
+    hist = r["history"][m]
+    if hist.ndim != 2 or hist.shape[1] == 0:
+        hist = np.full((len(w), 1), -1)
+    nev = (hist != -1).sum(1)
+    # the last curved surface the rays met before the detector (a flat window or filter has no power)
+    pk = eng.result.packed
+    curved = {int(o) for o, k in zip(pk.s_obj, pk.s_kind) if k != 0} if hasattr(pk, "s_kind") else set()
+    prev = np.full(len(hist), -1)
+    for k in range(hist.shape[1] - 1, -1, -1):
+        hk = hist[:, k]
+        ok = (prev < 0) & (np.arange(hist.shape[1])[k] < nev - 1) & (hk >= 0) & np.isin(hk // 8, list(curved))
+        prev[ok] = hk[ok] // 8
+    prev = prev[prev >= 0]
+    bfl = None
+    if len(prev):
+        o = int(np.bincount(prev).argmax())
+        fr = detector_frame(eng.result.packed, o)
+        if fr is not None:
+            bfl = z0 - float(fr[0] @ axis)
+            last_name = eng.result.packed.object_names[o]
+    real = bfl is None or bfl > 0
+    efl_s = efl if real else -efl
+    mag, mag_text = 0.0, "0 (object at infinity)"
+    if dkind == "POSITION":
+        pos = np.array(dpar["point"], float) if "point" in dpar else None
+        ax = "XYZ".index(g["axis"])
+        if pos is not None and abs(pos[ax] - g["position"]) > 0:
+            L = abs(pos[ax] - g["position"])
+            # sin u = h / L near the axis; sin u' = h / efl: m = u / u' (negative: a real, inverted image)
+            mag = -(efl / L) if real else efl / L
+            mag_text = f"{mag:.6g}"
+            efl_s, fnum = math.nan, math.nan   # a finite conjugate: the fit gives the image distance's scale
+    lines = ["FOCUS paraxial report (rotationally symmetric system, from the rays near the axis):"]
+    if dkind != "POSITION":
+        lines.append(f"  effective focal length EFL {efl_s / f:.6g} {unit}"
+                     + ("" if real else " (negative: a diverging system, the focus is virtual)"))
+        lines.append(f"  entrance pupil diameter {2 * h.max() / f:.6g} {unit}: f-number f/{fnum:.4g}")
+    if bfl is not None:
+        lines.append(f"  back focal length BFL {bfl / f:.6g} {unit} (paraxial focus "
+                     f"{'after' if bfl > 0 else 'before'} the vertex of {last_name}, along the light)")
+    lines.append(f"  paraxial focus at {'XYZ'[int(np.argmax(np.abs(axis)))]} = {z0 * np.sign(axis[np.argmax(np.abs(axis))]) / f:.9g} {unit}; "
+                 f"magnification {mag_text}")
+    eng.out("\n".join(lines))
+    interp.assign("FOCUS_EFL", Quantity(float(efl_s) if dkind != "POSITION" else 0.0, LENGTH), step.span)
+    interp.assign("FOCUS_BFL", Quantity(float(bfl) if bfl is not None else 0.0, LENGTH), step.span)
+    interp.assign("FOCUS_FNUM", Quantity(float(fnum) if dkind != "POSITION" else 0.0), step.span)
+    interp.assign("FOCUS_MAG", Quantity(float(mag)), step.span)
