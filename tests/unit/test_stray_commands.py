@@ -80,3 +80,28 @@ def test_analysis_without_a_trace_is_a_runtime_error(tmp_path, capsys):
     text = "SURFACE\n  PLANE Z 10 RECT 1 1\nOBJECT det\n  DETECTOR PIXELS 2\nPST ON det ANGLES 0 10 3\n"
     code, out, err = _run(tmp_path, text, capsys)
     assert code == 1 and "PST has no source to sweep" in err and "internal error" not in err
+
+
+def test_path_table_synthetic():
+    """Grouping, sorting, `other`, truncated histories and the per-source-ray standard error, on records made by
+    hand: two source rays split into records that share their start point count as two contributions."""
+    from irtlang.optics.stray import path_table
+
+    H = 3
+    R, T, S, A = 1, 2, 3, 4
+    hist = np.array([[0 * 8 + S, 1 * 8 + A, -1],          # a > b
+                     [0 * 8 + S, 1 * 8 + A, -1],          # a > b (the same source ray: start (0, 0))
+                     [0 * 8 + R, 0 * 8 + R, 0 * 8 + R],   # a a a ... (+2 events): truncated
+                     [-2, 1 * 8 + A, -1]])                # (volume) > b
+    rec = {"history": hist, "events": np.array([2, 2, 5, 2]), "flux": np.array([1.0, 2.0, 0.5, 0.25]),
+           "source": np.zeros(4, np.int32), "line": np.zeros(4, np.int32),
+           "start": np.array([[0.0, 0.0], [0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])}
+    rows, other, total, total_se, n = path_table(rec, np.ones(4, bool), ["a", "b"], n_traced=10, top=2)
+    assert n == 3 and total == 3.75
+    assert [(r[0], r[1], r[2]) for r in rows] == [("a > b", "scatter > absorb", 3.0),
+                                                  ("a > a > a > ... (+2 events)", "reflect > reflect > reflect > ...", 0.5)]
+    assert other[0] == "other (1 paths)" and other[2] == 0.25
+    # a > b: one source ray carrying 3 W out of 10: s1 = 3, s2 = 9 -> sqrt((0.9 - 0.09) * 100 / 9) = 3
+    assert rows[0][3] == pytest.approx(3.0)
+    rows, other, total, _, _ = path_table(rec, np.ones(4, bool), ["a", "b"], n_traced=10)
+    assert other is None and [r[0] for r in rows][-1] == "(volume) > b"
