@@ -89,9 +89,20 @@ def _cmd_psf(args):
             keep &= rf.line == args.line
         if not keep.any():
             raise AnalysisError("no ray records match the selection")
-        ax = ["xyz".index(c) for c in args.axes]
         pos = rf.position[keep]
-        return psf_metrics_rays(pos[:, ax[0]], pos[:, ax[1]], rf.flux[keep])
+        n_traced = int(rf.attrs.get("rays_traced", 0)) or None
+        frames = rf.object_frames
+        if args.axes is None and args.object is not None and frames is not None and \
+                np.all(np.isfinite(frames[rf.objects.index(args.object)])):
+            # the detector's own frame: positions relative to its origin along its local x and y
+            o, ex, ey, _ = frames[rf.objects.index(args.object)]
+            res = psf_metrics_rays((pos - o) @ ex, (pos - o) @ ey, rf.flux[keep], n_traced=n_traced)
+            res["frame"] = f"{args.object} local x, y ({rf.attrs.get('length_unit', '')})"
+            return res
+        ax = ["xyz".index(c) for c in (args.axes or "xy")]
+        res = psf_metrics_rays(pos[:, ax[0]], pos[:, ax[1]], rf.flux[keep], n_traced=n_traced)
+        res["frame"] = f"world {args.axes or 'xy'} ({rf.attrs.get('length_unit', '')})"
+        return res
     from .files import load_image
 
     reference = None
@@ -258,7 +269,9 @@ def build_parser(subparsers):
     p.add_argument("--rays", action="store_true", help="use the ray records of a ray file")
     p.add_argument("--object", help="with --rays: keep rays whose last object is this one")
     p.add_argument("--line", type=int, help="with --rays: keep one wavelength line")
-    p.add_argument("--axes", choices=("xy", "xz", "yz"), default="xy", help="with --rays: position columns")
+    p.add_argument("--axes", choices=("xy", "xz", "yz"), default=None,
+                   help="with --rays: world position columns (default: the --object's own frame when the file has "
+                        "it, else xy)")
 
     p = add("mtf", _cmd_mtf, "slanted-edge MTF (ISO 12233) and MTF50")
     p.add_argument("image", help=_IMAGE_HELP)

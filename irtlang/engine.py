@@ -25,7 +25,7 @@ import numpy as np
 
 from .io.manifest import RunFolder
 from .core.diagnostics import MissingCapability, RuntimeFailure, Span  # noqa: F401  (re-exported)
-from .core.units import Quantity, UNITS, LENGTH
+from .core.units import Quantity, UNITS, LENGTH, POWER
 from .model import scene as M
 from .tracer import standard_error
 
@@ -45,8 +45,10 @@ def needs_from_steps(steps) -> tuple[bool, bool]:
             obj = scene.objects.get(s.params.get("object"))
             if obj is not None and obj.detector is not None:
                 continue    # a DETECTOR's image is a streaming sum: no per-ray records (memory flat in rays)
-        if s.kind in RECORD_STEPS or (s.kind == "STATS" and s.params.get("what") in ("POSITION", "DIRECTION")):
-            rec = True
+        if s.kind in RECORD_STEPS or (s.kind == "STATS" and s.params.get("what") != "LEDGER"):
+            rec = True      # plain STATS, POSITION, DIRECTION and PATHS work on the selected rays' records
+        if (s.kind == "STATS" and s.params.get("what") == "PATHS") or s.kind == "FOCUS":
+            hist = True     # the path report; FOCUS's BFL (the last surface before the detector)
         if s.kind == "SELECT" and s.params.get("predicate") is not None:
             rec = hist = True
         if s.kind == "SAVE_RAYS":
@@ -177,6 +179,7 @@ class Engine:
             raise MissingCapability(e.span, e.what, e.capability) from None
         self.result = res
         self.scene = sc
+        self.last_trace = (sc, p)     # PST and SPOTS DIAGRAM trace its sources again
         self.rays_traced += res.n_traced
         self.folder.info["rays_traced"] = self.rays_traced
         tier = data_tier(sc, self.folder.info.get("data_tier"))
@@ -267,15 +270,26 @@ class Engine:
         if r is None:
             raise RuntimeFailure(step.span, f"{what} needs ray records, which this trace did not keep")
         m = np.ones(len(r["flux"]), bool)
-        names = list(self.scene.objects)
+        names = self._keys()
         if self.consider:
             idx = [names.index(k) for k in self.consider if k in names]
             m &= np.isin(r["object"], idx)
         if obj_filter is not None:
+            if obj_filter not in names:
+                raise RuntimeFailure(step.span, f"{what}: object {obj_filter} is not among the rays' objects")
             m &= r["object"] == names.index(obj_filter)
         if self.predicate is not None:
+            unknown = [k for k in _pred_objects(self.predicate) if k not in names]
+            if unknown:
+                raise RuntimeFailure(step.span, f"{what}: SELECT names {', '.join(unknown)}, which the rays never met "
+                                     "(not part of the last TRACE or ray file)")
             m &= _eval_pred(self.predicate, r, names, self.result.packed.lines_nm)
         return m
+
+    def _keys(self) -> list:
+        """Object keys in the order the records index them (a loaded ray file: the file's objects)."""
+        keys = getattr(self.result, "object_keys", None)
+        return list(keys) if keys is not None else list(self.scene.objects)
 
     def _rel_positions(self, m):
         """(ref, p - ref) for the selected records, with the records' low parts (position_lo) when they have them:
@@ -288,12 +302,13 @@ class Engine:
 
     # ------------------------------------------------------------------ analysis
     def do_stats(self, step, interp):
-        what = step.params["what"] or "LEDGER"
+        what = step.params["what"]
         if what == "LEDGER":
             self._need_rays(step, "STATS LEDGER")
             res = self.result
-            if res.ledger is None:   # irt check says so first (LOAD RAYS carries no ledger)
-                raise RuntimeFailure(step.span, "STATS LEDGER needs the flux ledger of a TRACE: loaded rays carry none")
+            if res.ledger is None:
+                raise RuntimeFailure(step.span, "STATS LEDGER: this ray file holds no ledger (written by an older "
+                                     "irtlang, or a file not written by SAVE RAYS); trace the scene again for it")
             led = res.ledger.sum(axis=2)
             rows = res.rows
             se = _se_rows(res)
@@ -315,15 +330,42 @@ class Engine:
                     w.writerow([name] + [repr(float(v)) for v in row])
                 self._write_text(step.params["file"], buf.getvalue(), "ledger")
             return
-        m = self._selected(step, f"STATS {what}")
+        if what == "PATHS":
+            from .optics.stray_step import run_paths   # the path report (irtlang/optics/stray.py)
+            run_paths(self, step, interp)
+            return
+        label = f"STATS {what}" if what else "STATS"
+        m = self._selected(step, label)
         r = self.result.records
         w = r["flux"][m]
         unit, f = self._lu()
         n = int(m.sum())
+        tot = float(w.sum())
+        se = self._se_of(m)
+        interp.assign("STATS_FLUX", Quantity(tot, POWER), step.span)
+        interp.assign("STATS_FLUX_SE", Quantity(se, POWER), step.span)
+        interp.assign("STATS_RAYS", Quantity(float(n)), step.span)
         if n == 0:
-            self.out(f"STATS {what}: no rays selected")
+            self.out(f"{label}: no rays selected")
             return
-        tot = w.sum()
+        if not what:   # the selected rays' flux on each object they ended on
+            names = list(self.result.packed.object_names)
+            objs = r["object"][m]
+            lines = [f"STATS: {n:,} rays selected, flux {tot:.6g} W +- {se:.2g}"]
+            rows = []
+            for o in np.unique(objs):
+                mo = m.copy()
+                mo[m] = objs == o
+                fo, eo = float(r["flux"][mo].sum()), self._se_of(mo)
+                nm = names[o] if 0 <= o < len(names) else "(none)"
+                rows.append((nm, int(mo.sum()), fo, eo))
+                lines.append(f"  on {nm}: {int(mo.sum()):,} rays, {fo:.6g} W +- {eo:.2g}")
+            self.out("\n".join(lines))
+            if step.params["file"]:
+                text = "object,rays,flux_W,stderr_W\n" + "".join(f"{a},{b},{c!r},{d!r}\n" for a, b, c, d in rows)
+                text += f"total,{n},{tot!r},{se!r}\n"
+                self._write_text(step.params["file"], text, "stats")
+            return
         ref, vec = self._rel_positions(m) if what == "POSITION" else (np.zeros(3), r["direction"][m])
         vec = vec / f if what == "POSITION" else vec
         mean = (vec * w[:, None]).sum(0) / tot if tot else vec.mean(0)
@@ -331,9 +373,26 @@ class Engine:
         mean = mean + ref / (f if what == "POSITION" else 1.0)
         sem = sd / math.sqrt(max(n - 1, 1))
         lab = f" ({unit})" if what == "POSITION" else ""
-        self.out(f"STATS {what}: {n:,} rays, flux {tot:.6g} W +- {_se(w, self.result.n_traced):.2g}\n"
+        self.out(f"STATS {what}: {n:,} rays, flux {tot:.6g} W +- {se:.2g}\n"
                  + "\n".join(f"  {a}: mean {mu:.9g} +- {e:.2g}{lab}, rms spread {s:.6g}"
                              for a, mu, e, s in zip("XYZ", mean, sem, sd)))
+        dim = LENGTH if what == "POSITION" else None
+        for a, mu in zip("XYZ", mean):
+            interp.assign(f"STATS_{a}", Quantity(float(mu) * (f if dim else 1.0), dim), step.span)
+        if step.params["file"]:
+            text = f"axis,mean,stderr,rms_spread\n" + "".join(f"{a},{mu!r},{e!r},{s!r}\n" for a, mu, e, s in
+                                                              zip("XYZ", map(float, mean), map(float, sem), map(float, sd)))
+            self._write_text(step.params["file"], text, "stats")
+
+    def _se_of(self, m) -> float:
+        """Standard error of the selected records' total flux, the records grouped by source ray."""
+        from .optics.stray import grouped_se, ray_keys
+
+        r = self.result.records
+        sub = {k: r[k][m] for k in ("source", "line", "flux") if k in r}
+        if r.get("start") is not None:
+            sub["start"] = r["start"][m]
+        return grouped_se(sub["flux"], ray_keys(sub), self.result.n_traced)
 
     def _window(self, vec):
         if self.window:
@@ -350,6 +409,10 @@ class Engine:
         return ax, (c[0] - h, c[0] + h), (c[1] - h, c[1] + h)
 
     def do_spots(self, step, interp):
+        if step.params["what"] == "DIAGRAM":
+            from .optics.spots_step import run_spot_diagram   # spot diagrams (irtlang/optics/spots.py)
+            run_spot_diagram(self, step, interp)
+            return
         m = self._selected(step, "SPOTS")
         r = self.result.records
         if not m.any():
@@ -374,9 +437,30 @@ class Engine:
         cx, cy = ox + cx, oy + cy
         scale = f if step.params["what"] == "POSITION" else 1.0
         lab = unit if step.params["what"] == "POSITION" else "(direction cosine)"
-        self.out(f"SPOTS {step.params['what']}: {int(m.sum()):,} rays, {tot:.6g} W +- {_se(w, self.result.n_traced):.2g}"
+        geo = math.sqrt(float(((x - (cx - ox)) ** 2 + (y - (cy - oy)) ** 2).max()))
+        local = ""
+        if step.params["what"] == "POSITION":   # the centroid in the frame of the object most rays ended on
+            from .optics.spots import detector_frame
+
+            objs = r["object"][m]
+            det = int(np.bincount(objs[objs >= 0]).argmax()) if (objs >= 0).any() else -1
+            fr = detector_frame(self.result.packed, det) if det >= 0 else None
+            if fr is not None:
+                c3 = np.zeros(3)
+                c3[ax[0]], c3[ax[1]] = cx, cy
+                c3[[i for i in range(3) if i not in ax][0]] = float(r["position"][m][:, [i for i in range(3)
+                                                                                        if i not in ax][0]].mean())
+                lx, ly = float((c3 - fr[0]) @ fr[1]), float((c3 - fr[0]) @ fr[2])
+                local = (f"; on {self.result.packed.object_names[det]} (its local x, y): centroid "
+                         f"{lx / f:.9g}, {ly / f:.9g} {unit}")
+        self.out(f"SPOTS {step.params['what']}: {int(m.sum()):,} rays, {tot:.6g} W +- {self._se_of(m):.2g}"
                  f" ({inside.mean():.1%} in the window); centroid {'XYZ'[ax[0]]} {cx / scale:.9g}, "
-                 f"{'XYZ'[ax[1]]} {cy / scale:.9g} {lab}; rms radius {rms / scale:.6g} {lab}")
+                 f"{'XYZ'[ax[1]]} {cy / scale:.9g} {lab}; rms radius {rms / scale:.6g} {lab}, geo radius "
+                 f"{geo / scale:.6g} {lab}{local}")
+        dim = LENGTH if step.params["what"] == "POSITION" else None
+        for var, v in (("SPOTS_RMS", rms), ("SPOTS_GEO", geo), ("SPOTS_X", cx), ("SPOTS_Y", cy)):
+            interp.assign(var, Quantity(float(v), dim), step.span)
+        interp.assign("SPOTS_FLUX", Quantity(float(tot), POWER), step.span)
         if step.params["file"]:
             self._write_image(step.params["file"], img[None], "spots", extent=(a0 / scale, a1 / scale, b0 / scale, b1 / scale),
                               per_line=False, name="spots", coord_unit=None if step.params["what"] == "POSITION" else "1")
@@ -412,32 +496,51 @@ class Engine:
         Xs = X + s * U
         rms = math.sqrt((w[:, None] * Xs * Xs).sum() / W)
         unit, f = self._lu()
+        # the absolute best-focus point: the rays' centroid moved by s along the axis coordinate
+        ref = self._rel_positions(m)[0]
+        pa = float((p[:, a] * w).sum() / W)
+        best = np.empty(3)
+        best[a] = ref[a] + pa + s
+        best[tr] = ref[tr] + xm + um * s
         s *= sgn   # s above is a shift of the axis coordinate; report it along the rays' direction of travel
+        where = "beyond" if s > 0 else "short of"
         self.out(f"FOCUS: best focus {s / f:+.9g} {unit} along {'+-'[sgn < 0]}{'XYZ'[a]} from the rays' end points "
                  f"(RMS radius {rms / f:.6g} {unit} there, {rms0 / f:.6g} {unit} at the end points; "
-                 f"{int(m.sum()):,} rays)")
+                 f"{int(m.sum()):,} rays)\n"
+                 f"  best-focus position X {best[0] / f:.9g}, Y {best[1] / f:.9g}, Z {best[2] / f:.9g} {unit}: "
+                 f"{abs(s) / f:.6g} {unit} {where} the rays' end points, along the light")
         interp.assign("FOCUS_SHIFT", Quantity(s, LENGTH), step.span)
         interp.assign("FOCUS_RMS", Quantity(rms, LENGTH), step.span)
+        for k, ax_name in enumerate("XYZ"):
+            interp.assign(f"FOCUS_{ax_name}", Quantity(float(best[k]), LENGTH), step.span)
+        from .optics.spots import paraxial_report   # EFL, BFL, f-number, magnification
+        paraxial_report(self, step, interp, m, axis)
 
     def do_spectrum_of(self, step, interp):
         self._need_rays(step, "SPECTRUM OF")
         res = self.result
         if res.ledger is None:
             raise RuntimeFailure(step.span, "SPECTRUM OF needs the flux ledger of a TRACE: loaded rays carry none")
-        names = list(self.scene.objects)
+        names = self._keys()
         key = step.params["object"]
         if key not in names:
             raise RuntimeFailure(step.span, f"object {key} was not part of the last TRACE (CONSIDER)")
+        if res.ledger is None:
+            raise RuntimeFailure(step.span, "SPECTRUM OF: this ray file holds no ledger (written by an older irtlang)")
         o = names.index(key)
         flux = res.ledger[o, 0]
         se = standard_error(flux, res.ledger_sq[o], res.n_traced)
         lines = ["wavelength_nm,flux_W,stderr_W"] + [f"{lam:.6g},{repr(float(f))},{repr(float(e))}"
                                                      for lam, f, e in zip(res.packed.lines_nm, flux, se)]
         shown = lines[:1] + lines[1:8] + (["..."] if len(lines) > 9 else []) + (lines[-1:] if len(lines) > 8 else [])
-        self.out(f"SPECTRUM OF {self.scene.objects[key].name}:\n  " + "\n  ".join(shown))
+        self.out(f"SPECTRUM OF {res.packed.object_names[o]}:\n  " + "\n  ".join(shown))
         if self.collector is not None:
-            self.collector.add_spectrum(self.scene.objects[key].name, res.packed.lines_nm, flux, se,
+            self.collector.add_spectrum(res.packed.object_names[o], res.packed.lines_nm, flux, se,
                                         step.params["file"] or "")
+        tot = float(flux.sum())
+        interp.assign("SPECTRUM_FLUX", Quantity(tot, POWER), step.span)
+        interp.assign("SPECTRUM_FLUX_SE", Quantity(float(standard_error(tot, res.ledger_sq[o].sum(), res.n_traced)),
+                                                   POWER), step.span)
         if step.params["file"]:
             self._write_text(step.params["file"], "\n".join(lines) + "\n", "spectrum")
 
@@ -500,6 +603,10 @@ class Engine:
                           name=obj.name, kind_label="window")
         self.out(f"EXPORT {obj.name}: WINDOW grid {nx}x{ny} x {L} lines, {img.sum():.6g} W -> {step.params['file']}")
 
+    def do_pst(self, step, interp):
+        from .optics.pst_step import run_pst   # point source transmittance (irtlang/optics/pst_step.py)
+        run_pst(self, step, interp)
+
     def do_psf(self, step, interp):
         from .optics.psf_step import run_psf   # the diffraction PSF (irtlang/optics/diffraction.py)
         run_psf(self, step, interp)
@@ -518,14 +625,31 @@ class Engine:
             dets[name] = {"sum": img, "sum2": img2, "x_range": (x0, x1), "y_range": (y0, y1),
                           "pixel_size": ((x1 - x0) / img.shape[2], (y1 - y0) / img.shape[1])}
         hist = r["history"][m]
-        hist = np.where(hist >= 0, hist // 8, -1).astype(np.int32) if hist.size else np.full((int(m.sum()), 1), -1, np.int32)
+        if hist.size:   # object indices, and the event at each (docs/rayfile.md: event_kinds)
+            kinds = np.where(hist >= 0, hist % 8, np.where(hist == -2, 5, 0)).astype(np.int8)
+            hist = np.where(hist >= 0, hist // 8, -1).astype(np.int32)
+        else:
+            hist, kinds = np.full((int(m.sum()), 1), -1, np.int32), None
+        start = r.get("start")
+        extra = {"event_kinds": kinds, "start": start[m] / f if start is not None else None}
+        if hasattr(self.result.packed, "s_obj"):   # each object's frame (its first surface): origin, x, y, normal
+            from .optics.spots import detector_frame
+
+            frames = []
+            for o in range(len(self.result.packed.object_names)):
+                fr = detector_frame(self.result.packed, o)
+                frames.append(np.array([fr[0] / f, fr[1], fr[2], fr[3]]) if fr is not None else np.full((4, 3), np.nan))
+            extra["object_frames"] = np.array(frames).reshape(-1, 4, 3)
+        if getattr(self.result, "ledger", None) is not None:
+            extra["ledger"] = {"rows": list(self.result.rows), "values": self.result.ledger,
+                               "sum_sq": self.result.ledger_sq}
         path = self.folder.output(step.params["file"])
         write_rays_v1(path, wavelengths_nm=self.result.packed.lines_nm, objects=self.result.packed.object_names,
                       position=r["position"][m] / f, direction=r["direction"][m], flux=r["flux"][m],
                       line=r["line"][m], source=r["source"][m], object=r["object"][m], events=r["events"][m],
                       flags=r["flags"][m], history=hist, detectors=dets, length_unit=unit, seed=self.result.seed,
                       script_sha256=self.folder.info["script_sha256"], data_tier=self.folder.info["data_tier"],
-                      rays_traced=self.result.n_traced)
+                      rays_traced=self.result.n_traced, **extra)
         self.folder.record(path, "rays")
         self._saved_from[str(path.resolve())] = (self.result, self.scene)   # LOAD RAYS of it keeps the ledger
         self.out(f"SAVE RAYS: {int(m.sum()):,} rays -> {step.params['file']}")
@@ -551,7 +675,13 @@ class Engine:
             self.result.ledger, self.result.ledger_sq = res.ledger, res.ledger_sq
             self.result.rows, self.result.n_traced = res.rows, res.n_traced
             self.result.packed.n_rows, self.result.packed.object_names = res.packed.n_rows, res.packed.object_names
-        self.out(f"LOAD RAYS: {rf.n_rays:,} rays from {Path(step.params['file']).name}")
+        missing = [what for what, ok in (("the events at each interaction (STATS PATHS shows '?')", rf.event_kinds),
+                                         ("the start points (standard errors take every ray as independent)",
+                                          rf.start), ("the energy ledger (STATS LEDGER)", rf.ledger))
+                   if ok is None]
+        self.out(f"LOAD RAYS: {rf.n_rays:,} rays on {len(rf.objects)} objects ({', '.join(rf.objects)}) from "
+                 f"{Path(step.params['file']).name}" + (f"; the file does not hold {'; '.join(missing)}"
+                                                         if missing and rf.n_rays else ""))
 
     def do_analyze(self, step, interp):
         """Run an analysis subcommand; file names resolve in the run folder first, then the script's folder."""
@@ -592,6 +722,21 @@ class Engine:
             if w.exists():
                 self.folder.record(w, "analysis")
 
+    def do_append(self, step, interp):
+        """APPEND: one row more in a CSV table of the run (rewritten whole, atomically, at every row)."""
+        tabs = self.__dict__.setdefault("tables", {})
+        f, header, values = step.params["file"], tuple(step.params["header"]), tuple(step.params["values"])
+        if f in tabs and tabs[f][0] != header:
+            raise RuntimeFailure(step.span, f"APPEND '{f}': the columns ({', '.join(header)}) differ from the "
+                                 f"table's ({', '.join(tabs[f][0])})")
+        hdr, rows = tabs.setdefault(f, (header, []))
+        rows.append(values)
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(hdr)
+        w.writerows(rows)
+        self._write_text(f, buf.getvalue(), "table")
+
     # ------------------------------------------------------------------ files
     def _write_text(self, rel, text, kind):
         from .io.atomic import write_text
@@ -612,7 +757,11 @@ class Engine:
                  else None)
         mm = np.asarray(extent, float) * (f / 1e-3) if coord_unit is None else np.asarray(extent, float)
         focal = focal_length_m(interp) if coord_unit is None else None
-        se = np.sqrt(np.asarray(sum2, np.float64)) if sum2 is not None else None
+        # a camera-side image's sum2 is already its per-pixel variance (TRACE CAMERA: n rays per pixel, not the
+        # whole trace's); every other image's standard error is the tracer's, from the trace's ray count
+        n_tr = None if getattr(self.result, "camera", None) else self.result.n_traced
+        se = (None if sum2 is None else np.sqrt(np.asarray(sum2, np.float64)) if not n_tr
+              else np.asarray(standard_error(img, np.asarray(sum2, np.float64), int(n_tr)), np.float64))
         prov = {k: self.folder.info.get(k) for k in ("irtlang_version", "script", "script_sha256", "seed",
                                                       "data_tier", "rays_traced")}
         epoch = interp.lookup("EPOCH_UTC") if interp is not None else None
@@ -621,7 +770,7 @@ class Engine:
         for q in write_image(p, img, sum2=sum2, extent=tuple(mm) if coord_unit is None else extent,
                              wavelengths_nm=lines, length_unit="mm" if coord_unit is None else "direction cosine",
                              bands=bands[0] if bands else None, focal_length_m=focal, provenance=prov,
-                             object_name=name or kind):
+                             object_name=name or kind, n_traced=n_tr, psf=kind == "psf"):
             self.folder.record(q, kind)
         if self.collector is not None:
             self.collector.add_image(name=name or kind, kind=kind_label or kind, img=img, se=se, extent_mm=tuple(mm),
@@ -670,19 +819,38 @@ class _LoadedResult:
 
     def __init__(self, rf, scene):
         f = UNITS[rf.attrs.get("length_unit", "mm").lower()][0]
-        hist = rf.history if rf.history is not None else np.full((rf.n_rays, 1), -1, np.int32)
-        self.records = dict(position=rf.position * f, direction=rf.direction, flux=rf.flux, line=rf.line,
-                            source=rf.source, object=rf.object, events=rf.events, flags=rf.flags,
-                            history=np.where(hist >= 0, hist * 8, -1))
+        n = rf.n_rays
+        hist = rf.history if rf.history is not None else np.full((n, 1), -1, np.int32)
+        kinds = rf.event_kinds
+        if kinds is not None:   # object * 8 + event, -2 for a volume event (the tracer's encoding)
+            hist = np.where(hist >= 0, hist * 8 + kinds, np.where(kinds == 5, -2, -1))
+        else:
+            hist = np.where(hist >= 0, hist * 8, -1)
+        self.event_kinds_known = kinds is not None
+        self.records = dict(position=rf.position * f if n else np.zeros((0, 3)),
+                            direction=rf.direction if n else np.zeros((0, 3)),
+                            flux=rf.flux if n else np.zeros(0), line=rf.line if n else np.zeros(0, np.int32),
+                            source=rf.source if n else np.zeros(0, np.int32),
+                            object=rf.object if n else np.zeros(0, np.int32),
+                            events=rf.events if n else np.zeros(0, np.int32),
+                            flags=rf.flags if n else np.zeros(0, np.uint32), history=hist,
+                            start=rf.start * f if rf.start is not None else None)
         self.n_traced = int(rf.attrs.get("rays_traced", rf.n_rays))
         self.seed = int(rf.attrs.get("seed", 0))
         self.images = {n: (d.sum, d.sum2) for n, d in rf.detectors.items()}
-
+        self.object_keys = [o.upper() for o in rf.objects]
+        led = rf.ledger
         self.packed = SimpleNamespace(
             lines_nm=rf.wavelengths_nm, object_names=list(rf.objects), detector_names=list(rf.detectors),
             d_ext=(np.array([[*d.x_range, *d.y_range] for d in rf.detectors.values()]) * f if rf.detectors
-                   else np.zeros((0, 4))))
-        self.ledger = None
+                   else np.zeros((0, 4))),
+            row_names=led["rows"] if led else [], n_rows=len(led["rows"]) if led else 0)
+        self.ledger = led["values"] if led else None
+        self.ledger_sq = led["sum_sq"] if led else None
+
+    @property
+    def rows(self) -> list:
+        return self.packed.row_names
 
 
 def _eval_pred(pred, r, names, lines_nm) -> np.ndarray:
@@ -714,9 +882,12 @@ def _eval_pred(pred, r, names, lines_nm) -> np.ndarray:
     raise ValueError(op)  # pragma: no cover
 
 
-def _se(w, n):
-    """Standard error of the total of per-path fluxes w over n source rays."""
-    return float(standard_error(w.sum(), (w * w).sum(), n))
+def _pred_objects(pred) -> list:
+    if pred[0] in ("and", "or"):
+        return _pred_objects(pred[1]) + _pred_objects(pred[2])
+    if pred[0] == "not":
+        return _pred_objects(pred[1])
+    return [] if pred[0] == "WAVELENGTH" else list(pred[1])
 
 
 def _se_rows(res):

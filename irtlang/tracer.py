@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .compile.pack import Packed, pack
+from .core.stats import standard_error  # noqa: F401  (re-exported: irtlang.tracer.standard_error)
 from .compile.specialize import kernel_module
 
 HISTORY_CAP = 16
@@ -42,12 +43,6 @@ class TraceResult:
         return s1, standard_error(s1, s2, self.n_traced)
 
 
-def standard_error(s1, s2, n):
-    """Standard error of a sum of n independent per-ray contributions with sums s1 and s2 (squares)."""
-    if n <= 1:
-        return 0.0
-    var = np.maximum(np.asarray(s2) / n - (np.asarray(s1) / n) ** 2, 0.0)
-    return np.sqrt(var * n * n / (n - 1))
 
 
 def _object_bounds(pk: Packed) -> tuple[np.ndarray, np.ndarray]:

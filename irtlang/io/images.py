@@ -16,14 +16,22 @@ from .atomic import atomic_path, write_bytes, write_text
 
 def write_image(path: Path, img: np.ndarray, *, sum2=None, extent=None, wavelengths_nm=None,
                 length_unit: str = "mm", bands=None, focal_length_m: float | None = None, provenance=None,
-                object_name: str | None = None) -> list[Path]:
+                object_name: str | None = None, n_traced: int | None = None, psf: bool = False) -> list[Path]:
     """Write an image file; returns the paths written.  extent (x0, x1, y0, y1) in length_unit; bands: the
     filter names of the k images (DETECTOR FILTERS); focal_length_m: adds the field-angle WCS to a FITS file;
-    provenance: FITS header cards (irtlang_version, script_sha256, seed, data_tier, rays_traced, epoch_utc)."""
+    provenance: FITS header cards (irtlang_version, script_sha256, seed, data_tier, rays_traced, epoch_utc).
+    `sum2`: the per-source-ray squared sums; the standard error is the tracer's (the same as every printed
+    total's) when `n_traced` is given, else sqrt(sum2).  `psf`: a normalized PSF (energy fraction per pixel),
+    labelled as such (PNG colour bar, CSV column, FITS BUNIT)."""
     path = Path(path)
     ext = path.suffix.lower()
     img = np.asarray(img, np.float64)
-    stderr = np.sqrt(np.asarray(sum2, np.float64)) if sum2 is not None else None
+    if sum2 is not None and n_traced:
+        from ..core.stats import standard_error
+
+        stderr = np.asarray(standard_error(img, np.asarray(sum2, np.float64), int(n_traced)), np.float64)
+    else:
+        stderr = np.sqrt(np.asarray(sum2, np.float64)) if sum2 is not None else None
     written = [path]
     if ext == ".npy":
         with atomic_path(path) as tmp:
@@ -37,12 +45,15 @@ def write_image(path: Path, img: np.ndarray, *, sum2=None, extent=None, waveleng
             written.append(sp)
     elif ext in (".fits", ".fit"):
         write_bytes(path, fits_bytes(img, stderr, extent, wavelengths_nm, length_unit, bands=bands,
-                                     focal_length_m=focal_length_m, provenance=provenance, object_name=object_name))
+                                     focal_length_m=focal_length_m, provenance=provenance, object_name=object_name,
+                                     bunit="" if psf else "W"))
     elif ext == ".png":
-        _png(path, img, extent, length_unit)
+        _png(path, img, extent, length_unit, label="normalized PSF (energy fraction per pixel)" if psf
+             else "flux per pixel (W)")
     elif ext == ".csv":
         buf = io.StringIO()
-        buf.write("line,wavelength_nm,row,col,flux_W" + (",stderr_W" if stderr is not None else "") + "\n")
+        buf.write("line,wavelength_nm,row,col," + ("psf_fraction" if psf else "flux_W")
+                  + (",stderr_W" if stderr is not None else "") + "\n")
         L, ny, nx = img.shape
         for k in range(L):
             lam = wavelengths_nm[k] if wavelengths_nm is not None else float("nan")
@@ -129,13 +140,13 @@ def _wcs_cards(shape, extent, wavelengths_nm, length_unit, bands, focal_length_m
 
 
 def fits_bytes(img, stderr, extent, wavelengths_nm, length_unit, *, bands=None, focal_length_m=None,
-               provenance=None, object_name=None) -> bytes:
+               provenance=None, object_name=None, bunit: str = "W") -> bytes:
     """A FITS file (primary image, optional STDERR extension) by the FITS 4.0 standard, no dependencies."""
     import datetime as _dt
 
     L, ny, nx = img.shape
     cards = [_card("SIMPLE", True), _card("BITPIX", -64), _card("NAXIS", 3), _card("NAXIS1", nx),
-             _card("NAXIS2", ny), _card("NAXIS3", L), _card("EXTEND", True), _card("BUNIT", "W", "flux per pixel"),
+             _card("NAXIS2", ny), _card("NAXIS3", L), _card("EXTEND", True), _card("BUNIT", bunit, "flux per pixel" if bunit else "normalized PSF"),
              _card("ORIGIN", "irtlang")]
     if object_name:
         cards.append(_card("OBJECT", object_name, "the detector (or SPOTS, PSF)"))
@@ -171,7 +182,7 @@ def fits_bytes(img, stderr, extent, wavelengths_nm, length_unit, *, bands=None, 
     return out
 
 
-def _png(path: Path, img, extent, length_unit) -> None:
+def _png(path: Path, img, extent, length_unit, label: str = "flux per pixel (W)") -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -180,12 +191,15 @@ def _png(path: Path, img, extent, length_unit) -> None:
     total = img.sum(axis=0)
     fig, ax = plt.subplots(figsize=(5, 4.2), dpi=120)
     kw = {}
-    if extent is not None:
+    if extent is not None:   # the detector's local x, y (or the WINDOW's axes), equal scales
         kw["extent"] = extent
         ax.set_xlabel(f"x ({length_unit})")
         ax.set_ylabel(f"y ({length_unit})")
-    im = ax.imshow(total, origin="lower", cmap="inferno", aspect="auto", **kw)
-    fig.colorbar(im, ax=ax, label="flux per pixel (W)")
+    else:
+        ax.set_xlabel("column (pixel)")
+        ax.set_ylabel("row (pixel)")
+    im = ax.imshow(total, origin="lower", cmap="inferno", aspect="equal", **kw)
+    fig.colorbar(im, ax=ax, label=label)
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png")

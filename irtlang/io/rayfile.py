@@ -77,6 +77,14 @@ class RayFile:
     flags: np.ndarray | None = None
     history: np.ndarray | None = None
     detectors: dict = field(default_factory=dict)
+    #: optional (written by irtlang since the path report): the event at each history entry (0 none, 1 reflect,
+    #: 2 transmit, 3 scatter, 4 absorb, 5 volume scattering), each ray's start point in its source's frame
+    #: (length_unit) and the trace's energy ledger {"rows", "values" (rows, 5, L), "sum_sq" (rows, L)}
+    event_kinds: np.ndarray | None = None
+    start: np.ndarray | None = None
+    ledger: dict | None = None
+    #: optional: each object's frame (K, 4, 3): origin (length_unit), local x, local y, normal (world)
+    object_frames: np.ndarray | None = None
 
     @property
     def n_rays(self):
@@ -145,6 +153,25 @@ def read_rays(path):
                 setattr(out, col, arr)
             if out.line.size and (out.line.min() < 0 or out.line.max() >= wl.size):
                 raise AnalysisError(f"{path}: /rays/line indexes beyond the {wl.size} wavelength lines")
+            for col, dtype, shape in (("event_kinds", np.int8, out.history.shape), ("start", np.float64, (n, 2))):
+                if col in fh["rays"]:
+                    arr = np.asarray(fh["rays"][col][()], dtype=dtype)
+                    if arr.shape != shape:
+                        raise AnalysisError(f"{path}: /rays/{col} has shape {arr.shape}, expected {shape}")
+                    setattr(out, col, arr)
+        if "object_frames" in fh:
+            fr = np.asarray(fh["object_frames"][()], np.float64)
+            if fr.shape != (len(objects), 4, 3):
+                raise AnalysisError(f"{path}: /object_frames has shape {fr.shape}, expected ({len(objects)}, 4, 3)")
+            out.object_frames = fr
+        if "ledger" in fh:
+            g = fh["ledger"]
+            rows = [o.decode("utf-8") if isinstance(o, bytes) else str(o) for o in g["rows"][()]]
+            vals, sq = np.asarray(g["values"][()], np.float64), np.asarray(g["sum_sq"][()], np.float64)
+            if vals.shape != (len(rows), 5, wl.size) or sq.shape != (len(rows), wl.size):
+                raise AnalysisError(f"{path}: /ledger/values {vals.shape} and /ledger/sum_sq {sq.shape} do not match "
+                                    f"{len(rows)} rows and {wl.size} lines")
+            out.ledger = {"rows": rows, "values": vals, "sum_sq": sq}
         for name, grp in fh.get("detectors", {}).items():
             s, s2 = np.asarray(grp["sum"][()], np.float64), np.asarray(grp["sum2"][()], np.float64)
             if s.ndim != 3 or s.shape[0] != wl.size or s2.shape != s.shape:
@@ -163,7 +190,8 @@ def read_rays(path):
 def write_rays_v1(path, *, wavelengths_nm, objects=(), position=None, direction=None, flux=None, line=None,
                   source=None, object=None, events=None, flags=None, history=None, detectors=None,
                   length_unit="mm", seed=0, script_sha256="", data_tier="none", rays_traced=0,
-                  irtlang_version=None, created_utc=None):
+                  irtlang_version=None, created_utc=None, event_kinds=None, start=None, ledger=None,
+                  object_frames=None):
     """Reference writer of a schema-1 ray file, atomic (temporary file in the same folder, then ``os.replace``).
 
     Signature: ``write_rays_v1(path, *, wavelengths_nm, objects=(), position=None, direction=None, flux=None,
@@ -174,7 +202,8 @@ def write_rays_v1(path, *, wavelengths_nm, objects=(), position=None, direction=
     Ray columns are written when ``position`` is given (then ``direction`` and ``flux`` are required; ``line``,
     ``source``, ``events``, ``flags`` default to 0, ``object`` to -1 and ``history`` to one column of -1).
     ``detectors``: ``{name: {"sum": (L, ny, nx), "sum2": ..., "x_range": (2,), "y_range": (2,),
-    "pixel_size": (2,)}}`` (``sum2`` defaults to zeros). Units as in docs/rayfile.md.
+    "pixel_size": (2,)}}`` (``sum2`` defaults to zeros). Optional: ``event_kinds`` (N, H) int8, ``start`` (N, 2)
+    and ``ledger`` {"rows", "values", "sum_sq"}. Units as in docs/rayfile.md.
     """
     import h5py
 
@@ -215,6 +244,17 @@ def write_rays_v1(path, *, wavelengths_nm, objects=(), position=None, direction=
                 grp = fh.create_group("rays")
                 for name, arr in columns.items():
                     grp.create_dataset(name, data=arr)
+                if event_kinds is not None:
+                    grp.create_dataset("event_kinds", data=np.asarray(event_kinds, np.int8).reshape(columns["history"].shape))
+                if start is not None:
+                    grp.create_dataset("start", data=np.asarray(start, np.float64).reshape(-1, 2))
+            if object_frames is not None:
+                fh.create_dataset("object_frames", data=np.asarray(object_frames, np.float64).reshape(-1, 4, 3))
+            if ledger is not None:
+                g = fh.create_group("ledger")
+                g.create_dataset("rows", data=list(ledger["rows"]), dtype=h5py.string_dtype())
+                g.create_dataset("values", data=np.asarray(ledger["values"], np.float64))
+                g.create_dataset("sum_sq", data=np.asarray(ledger["sum_sq"], np.float64))
             for name, det in (detectors or {}).items():
                 grp = fh.create_group(f"detectors/{name}")
                 s = np.asarray(det["sum"], dtype=np.float64)

@@ -324,6 +324,8 @@ def _coating(it, b, st):
 }))))),), "materials", "define a spectrum (SOLAR, TABLE, BLACKBODY); SPECTRUM OF obj: flux per line")
 def _spectrum(it, b, st):
     if b.variants["kind"] == "OF":
+        it.assign("SPECTRUM_FLUX", Quantity(0.0, POWER), b.span)      # set by the run; 0 under irt check
+        it.assign("SPECTRUM_FLUX_SE", Quantity(0.0, POWER), b.span)
         it.step("SPECTRUM_OF", {"object": b["object"], "file": b.get("file")}, b.span)
         return
     from ..io.spectra import make_spectrum
@@ -750,6 +752,7 @@ def _trace(it, b, st):
             if sc.toward is not None and sc.toward not in s.objects:
                 raise error(sc.span, f"SCATTER ... TOWARD '{sc.toward}' is not an object", did_you_mean(sc.toward, names))
     _check_scene(it, b)
+    _warn_consider(it, b)
     camera = None
     if "camera" in b or "aim" in b or "per_pixel" in b or "i0" in b or "spectral" in b:
         if "camera" not in b or "aim" not in b:
@@ -834,6 +837,14 @@ def _load(it, b, st):
         it.step("LOAD_RAYS", {"file": saved, "in_run_folder": True}, b.span)
         return
     path = it.input_path(b["file"], b.span_of("file"))
+    try:   # the file's object names become names the analysis commands accept (CONSIDER ONLY det, HIT(M2))
+        import h5py
+
+        with h5py.File(path, "r") as fh:
+            names = [o.decode("utf-8") if isinstance(o, bytes) else str(o) for o in fh["objects"][()]]
+        it.loaded_objects = getattr(it, "loaded_objects", set()) | {n.upper() for n in names}
+    except (OSError, KeyError):
+        pass    # not a ray file: LOAD RAYS reports it when it runs
     it.step("LOAD_RAYS", {"file": str(path)}, b.span)
 
 
@@ -841,7 +852,27 @@ def _load(it, b, st):
 @command("CONSIDER", Form((Variants("how", {"ONLY": Form((Param("objects", "refs", None, ns="object"),)),
                                              "ALL": Form()}),)), "analysis", "restrict the scene to some objects")
 def _consider(it, b, st):
+    # remembered for TRACE, which warns when CONSIDER ONLY leaves objects out of the trace
+    it.consider_only = (b.span, b["objects"]) if b.get("objects") else None
     it.step("CONSIDER", {"objects": b.get("objects")}, b.span)
+
+
+def _warn_consider(it, b) -> None:
+    """TRACE with CONSIDER ONLY in force traces only those objects (ASAP's meaning): say so, on stderr."""
+    import sys
+
+    from .diagnostics import Diagnostic
+
+    span, keys = getattr(it, "consider_only", None) or (None, ())
+    left = [o.name for k, o in it.state.objects.items() if k not in keys]
+    if span is None or not left:
+        return
+    kept = ", ".join(it.state.objects[k].name for k in keys if k in it.state.objects)
+    d = Diagnostic(b.span, f"CONSIDER ONLY is in force: this TRACE sees only {kept or 'no object'}; "
+                   f"{', '.join(left)} take{'s' if len(left) == 1 else ''} no part in it", severity="warning",
+                   hint="put CONSIDER ONLY after TRACE to restrict the analysis only, or CONSIDER ALL before TRACE",
+                   notes=((span, "CONSIDER ONLY given here"),))
+    print(d.render(), file=sys.stderr, flush=True)
 
 
 SELECT_FUNCS = {"HIT": 1, "LAST": 1, "SCATTERED": 1, "PATH": None, "WAVELENGTH": 2}
@@ -929,10 +960,61 @@ def _pred_expr(it, e):
     raise error(e.span, "expected a predicate: HIT(o) LAST(o) SCATTERED(o) PATH(a, b, ...) WAVELENGTH(lo, hi)")
 
 
-@command("STATS", Form((Choice("what", ("LEDGER", "POSITION", "DIRECTION"), optional=True), Path("file", optional=True))),
-         "analysis", "statistics of the selected rays; LEDGER: the energy ledger per object")
+@command("STATS", Form((Choice("what", ("LEDGER", "POSITION", "DIRECTION", "PATHS"), optional=True),
+                        Path("file", optional=True)),
+                       (Clause("TOP", (V("top", integer=True, check=positive),), doc="PATHS: the n leading paths, "
+                               "then one 'other' row"),)),
+         "analysis", "statistics of the selected rays; LEDGER: the energy ledger per object; PATHS: flux per path")
 def _stats(it, b, st):
-    it.step("STATS", {"what": b.get("what"), "file": b.get("file")}, b.span)
+    what = b.get("what")
+    if "top" in b and what != "PATHS":
+        raise error(b.spans["kw:TOP"], "TOP applies to STATS PATHS", "STATS PATHS 'paths.csv' TOP 10")
+    # results as variables (docs/language.md, section 17); a check run has no rays, so there they hold 0
+    if what == "PATHS":
+        for var in ("PATHS_TOP_FLUX", "PATHS_TOP_FLUX_SE", "PATHS_SECOND_FLUX", "PATHS_SECOND_FLUX_SE", "PATHS_FLUX"):
+            it.assign(var, Quantity(0.0, POWER), b.span)
+        it.assign("PATHS_TOP_FRACTION", Quantity(0.0, NONE), b.span)
+        it.assign("PATHS_COUNT", Quantity(0.0, NONE), b.span)
+        it.assign("PATHS_TOP", "", b.span)
+    elif what != "LEDGER":
+        it.assign("STATS_FLUX", Quantity(0.0, POWER), b.span)
+        it.assign("STATS_FLUX_SE", Quantity(0.0, POWER), b.span)
+        it.assign("STATS_RAYS", Quantity(0.0, NONE), b.span)
+        if what is not None:
+            for a in "XYZ":
+                it.assign(f"STATS_{a}", Quantity(0.0, LENGTH if what == "POSITION" else NONE), b.span)
+    it.step("STATS", {"what": what, "file": b.get("file"), "top": b.get("top")}, b.span)
+
+
+@command("APPEND", Form((Path("file"), Rest("items"))), "analysis",
+         "append a row of values to a CSV table (a sweep's results from a DO loop); the header names the items")
+def _append(it, b, st):
+    """APPEND 'sweep.csv' angle STATS_FLUX STATS_FLUX_SE: the first APPEND to a file in a run writes the header
+    (each item's text, with its unit: `angle (deg)`, `STATS_FLUX (W)`), every APPEND one row; lengths are in the
+    UNITS unit, angles in degrees; strings are quoted when they need it."""
+    from .units import DISPLAY, unit_string
+
+    f = b["file"]
+    if not f.lower().endswith(".csv"):
+        raise error(b.span_of("file"), "APPEND writes .csv tables", "APPEND 'results.csv' x STATS_FLUX")
+    items = b["items"]
+    if not items:
+        raise error(b.span, "APPEND needs at least one value", "APPEND 'results.csv' x STATS_FLUX")
+    header, values = [], []
+    for item in items:
+        sp = item.span
+        text = (sp.source.line(sp.line)[sp.col - 1:sp.end_col - 1] if sp.source is not None and sp.end_line == sp.line
+                else getattr(item, "name", "value")).strip()
+        v = evaluate(item, it.env)
+        if isinstance(v, str):
+            header.append(text)
+            values.append(v)
+            continue
+        unit = ("" if v.dim in (None, NONE) else it.state.units.lower() if v.dim == LENGTH
+                else DISPLAY[v.dim][0] if v.dim in DISPLAY else unit_string(v.dim))
+        header.append(f"{text} ({unit})" if unit else text)
+        values.append(format_value(v, it.env, ".12g"))
+    it.step("APPEND", {"file": f, "header": tuple(header), "values": tuple(values)}, b.span, with_scene=False)
 
 
 @command("WINDOW", Form((Axis("axis1"), V("min1", LENGTH), V("max1", LENGTH), Axis("axis2"), V("min2", LENGTH),
@@ -952,17 +1034,44 @@ def _pixels(it, b, st):
     it.step("PIXELS", {"nx": b["nx"], "ny": b.get("ny", b["nx"])}, b.span, with_scene=False)
 
 
-@command("SPOTS", Form((Choice("what", ("POSITION", "DIRECTION")), Path("file", optional=True))), "analysis",
-         "irradiance map of the selected rays in the window (or their directions)")
+@command("SPOTS", Form((Choice("what", ("POSITION", "DIRECTION", "DIAGRAM")), Path("file", optional=True)), (
+    Clause("FIELDS", (Vs("fields", ANGLE, n=2),), doc="DIAGRAM: trace the last GRID + SOURCE FIELD again on a 3 x 3 "
+           "grid of field angles: 0, +-half field along x and y"),
+    Clause("ABOUT", (Choice("about", ("CENTROID", "CHIEF")),), doc="DIAGRAM: intercepts about the centroid "
+           "(default) or the chief ray"),
+    Clause("THROUGH", (V("through", LENGTH, check=positive), V("steps", integer=True, check=positive)),
+           doc="DIAGRAM: through-focus spots from -d to +d about the detector in this many steps"),
+    Clause("SCALE", (V("scale", LENGTH, check=positive),), doc="DIAGRAM: half width of every panel"))),
+         "analysis", "irradiance map of the selected rays in the window (or their directions); DIAGRAM: spot diagrams")
 def _spots(it, b, st):
-    it.step("SPOTS", {"what": b["what"], "file": b.get("file")}, b.span)
+    what = b["what"]
+    for kw in ("fields", "about", "through", "scale"):
+        if kw in b and what != "DIAGRAM":
+            raise error(b.spans["kw:" + kw.upper()], f"{kw.upper()} applies to SPOTS DIAGRAM")
+    if what == "DIAGRAM":
+        f = b.get("file")
+        if f is None or not f.lower().endswith(".png"):
+            raise error(b.span_of("file") if f else b.span, "SPOTS DIAGRAM writes a .png figure (and a .csv beside it)",
+                        "SPOTS DIAGRAM 'spots.png' FIELDS 0.045 0.045 deg")
+        if "steps" in b and b["steps"] < 2:
+            raise error(b.spans["kw:THROUGH"], "THROUGH needs at least 2 steps")
+    # results as variables; a check run has no rays, so there they hold 0
+    dim = LENGTH if what != "DIRECTION" else NONE
+    for var in ("SPOTS_RMS", "SPOTS_GEO") + (("SPOTS_X", "SPOTS_Y") if what != "DIAGRAM" else ("SPOTS_RMS_AXIS",)):
+        it.assign(var, Quantity(0.0, dim), b.span)
+    it.assign("SPOTS_FLUX", Quantity(0.0, POWER), b.span)
+    it.step("SPOTS", {"what": what, "file": b.get("file"), "fields": b.get("fields"), "about": b.get("about", "CENTROID"),
+                      "through": b.get("through"), "steps": b.get("steps"), "scale": b.get("scale")}, b.span)
 
 
-@command("FOCUS", Form(), "analysis", "best-focus shift along the axis and its RMS spot radius")
+@command("FOCUS", Form(), "analysis", "best-focus position and shift along the axis, its RMS spot radius, and a "
+         "paraxial report (EFL, BFL, f-number, magnification)")
 def _focus(it, b, st):
     # FOCUS sets FOCUS_SHIFT and FOCUS_RMS (lengths); a check run has no rays, so there they hold 0
-    it.assign("FOCUS_SHIFT", Quantity(0.0, LENGTH), b.span)
-    it.assign("FOCUS_RMS", Quantity(0.0, LENGTH), b.span)
+    for var in ("FOCUS_SHIFT", "FOCUS_RMS", "FOCUS_X", "FOCUS_Y", "FOCUS_Z", "FOCUS_EFL", "FOCUS_BFL"):
+        it.assign(var, Quantity(0.0, LENGTH), b.span)
+    it.assign("FOCUS_FNUM", Quantity(0.0, NONE), b.span)
+    it.assign("FOCUS_MAG", Quantity(0.0, NONE), b.span)
     it.step("FOCUS", {}, b.span)
 
 
@@ -1009,6 +1118,27 @@ def _psf(it, b, st):
         it.assign(var, Quantity(0.0, LENGTH), b.span)
     it.assign("PSF_STREHL", Quantity(0.0, NONE), b.span)
     it.step("PSF", {"file": f, "object": b.get("object"), "pad": b.get("pad"), "size": b.get("size")}, b.span)
+
+
+@command("PST", Form((Path("file", optional=True),), (
+    Clause("ON", (Ref("object", "object"),), doc="the detector object (it needs a DETECTOR: its area)"),
+    Clause("ANGLES", (V("first", ANGLE), V("last", ANGLE), V("count", integer=True, check=positive)),
+           doc="the sweep: first and last off-axis angle and the number of angles"),
+    Clause("AXIS", (Choice("axis", ("X", "Y")),), doc="tilt along the grid's local x (default) or y"),
+    Clause("FIELD", (V("field", ANGLE, check=nonneg),), doc="the half field of view, shaded on the plot"))),
+         "analysis", "point source transmittance: the last TRACE's GRID + SOURCE FIELD swept over off-axis angles")
+def _pst(it, b, st):
+    f = b.get("file")
+    if f is not None and not f.lower().endswith(".csv"):
+        raise error(b.span_of("file"), "PST writes a .csv table (and a .png plot beside it)", "PST 'pst.csv' ON fpa ...")
+    for need, example in (("object", "ON fpa"), ("first", "ANGLES 0 30 deg 16")):
+        if need not in b:
+            raise error(b.span, f"PST needs {example.split()[0]}", f"PST 'pst.csv' ON fpa ANGLES 0 30 16")
+    it.assign("PST_MAX", Quantity(0.0, NONE), b.span)      # set by the run; 0 under irt check
+    it.assign("PST_LAST", Quantity(0.0, NONE), b.span)
+    it.assign("PST_LAST_SE", Quantity(0.0, NONE), b.span)
+    it.step("PST", {"file": f, "object": b["object"], "first": b["first"], "last": b["last"], "count": b["count"],
+                    "axis": b.get("axis"), "field": b.get("field")}, b.span)
 
 
 ANALYSES = ("RGB", "PSF", "MTF", "ESF", "DEFOCUS", "DISK", "SPECTRUM", "SERIES", "ANIMATE")

@@ -352,6 +352,8 @@ class Interpreter(BindContext):
         table = self._table(ns)
         if k in table:
             return k
+        if ns == "object" and k in getattr(self, "loaded_objects", ()):   # named by a LOAD RAYS file
+            return k
         if (ns, k) in self.state.failed:
             raise self.follow_on(span, f"{ns} '{name}' was not defined because its definition failed")
         elsewhere = [n for n in NAMESPACES if n != ns and k in self._table(n)]

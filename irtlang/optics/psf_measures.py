@@ -319,13 +319,22 @@ def _weighted_quantile(sorted_r, cum_fraction, q):
     return float(np.interp(np.clip(q, 0.0, 1.0), cum_fraction, sorted_r))
 
 
-def psf_metrics_rays(x, y, w=None, *, center=None, ee_fraction=0.8):
+def _standard_error(s1, s2, n):
+    """Standard error of a sum of n independent per-source-ray contributions with sums s1 and s2 (squares): the
+    formula of irtlang's tracer (irtlang.tracer.standard_error), so that a total has one standard error."""
+    if n <= 1:
+        return 0.0
+    return float(np.sqrt(max(s2 / n - (s1 / n) ** 2, 0.0) * n * n / (n - 1)))
+
+
+def psf_metrics_rays(x, y, w=None, *, center=None, ee_fraction=0.8, n_traced=None):
     """PSF figures of ray records (positions x, y on the detector plane, weights/fluxes w), with standard errors.
 
     Signature: ``psf_metrics_rays(x, y, w=None, *, center=None, ee_fraction=0.8) -> dict``. Lengths are in the
     unit of x and y. Rays are treated as independent weighted samples.
 
-    Keys: ``n_rays``; ``total`` = sum(w) and ``total_se`` = sqrt(sum w^2); ``centroid`` (x, y) and
+    Keys: ``n_rays``; ``total`` = sum(w) and ``total_se``: with ``n_traced`` (the source rays traced, the ray
+    file's ``rays_traced``) the standard error irtlang prints for the same total, else sqrt(sum w^2); ``centroid`` (x, y) and
     ``centroid_se``; ``rms_radius`` = sqrt(sum w r^2 / sum w) about the centre (default the centroid) and
     ``rms_radius_se`` (delta method on the weighted mean of r^2; the centroid's own error is neglected);
     ``ee80_diameter`` (twice the weighted ``ee_fraction`` quantile of r) and ``ee80_diameter_se``: the binomial
@@ -348,7 +357,8 @@ def psf_metrics_rays(x, y, w=None, *, center=None, ee_fraction=0.8):
     return {
         "n_rays": int(x.size),
         "total": float(w.sum()),
-        "total_se": float(np.sqrt(np.sum(w * w))),
+        "total_se": (_standard_error(float(w.sum()), float(np.sum(w * w)), int(n_traced)) if n_traced
+                     else float(np.sqrt(np.sum(w * w)))),
         "centroid": (mx, my),
         "centroid_se": (sx, sy),
         "rms_radius": rms,

@@ -276,7 +276,7 @@ def test_keyword_abbreviations_in_a_command():
     assert diagnose("SPOTS POS\n") == []
     assert diagnose("SURFACE\n  PLANE Z 0 ELL 1 2\nOBJECT a\n") == []
     (d,) = diagnose("SPOTS PO\n")
-    assert (d.span.line, d.span.col, d.message) == (1, 7, "SPOTS: expected POSITION or DIRECTION, got 'PO'")
+    assert (d.span.line, d.span.col, d.message) == (1, 7, "SPOTS: expected POSITION or DIRECTION or DIAGRAM, got 'PO'")
     assert d.hint is None
 
 
