@@ -41,14 +41,14 @@ def frame_error(run: Path, out: Path) -> Path:
     se = np.load(f.with_name(f.stem + ".stderr.npy"))[0]
     rel = np.where(img > 0, se / np.where(img > 0, img, 1), np.nan)
     lit = img > 0.02 * img.max()
-    fig, ax = plt.subplots(1, 2, figsize=(9, 4.2))
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4.6))
     a = ax[0].imshow(img * 1e12, origin="lower", cmap="gray")
     fig.colorbar(a, ax=ax[0], label="pW per pixel")
-    ax[0].set_title(f"{f.stem}: 550 nm band image")
+    ax[0].set_title(f"{f.stem[:13]}: 550 nm band", fontsize=10)
     b = ax[1].imshow(np.where(lit, rel * 100, np.nan), origin="lower", cmap="viridis", vmin=0,
                      vmax=np.nanpercentile(rel[lit] * 100, 99))
     fig.colorbar(b, ax=ax[1], label="relative standard error (%)")
-    ax[1].set_title(f"per-pixel error on the lit disk (median {np.nanmedian(rel[lit]):.1%})")
+    ax[1].set_title(f"relative standard error, lit disk (median {np.nanmedian(rel[lit]):.1%})", fontsize=10)
     for x in ax:
         x.set_xlabel("pixel (window column)")
         x.set_ylabel("pixel (window row)")

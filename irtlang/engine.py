@@ -169,7 +169,7 @@ class Engine:
         p = step.params
         cam = p.get("camera")
         if cam is not None:
-            self._trace_camera(step, sc, cam)
+            self._trace_camera(step, sc, cam, interp)
             return
         try:
             res = run_trace(sc, seed=sc.seed if self.seed is None else self.seed, level=p["level"], halt=p["halt"], until_error=p["until_error"],
@@ -203,7 +203,7 @@ class Engine:
             print(f"warning: {lost:.3g} W of ray flux was LOST to numerical failures "
                   f"(see STATS LEDGER)", file=sys.stderr)
 
-    def _trace_camera(self, step, sc, cam):
+    def _trace_camera(self, step, sc, cam, interp):
         """TRACE CAMERA: a camera-side (adjoint) trace (irtlang/model/camera.py).  Its image becomes the camera
         object's, so EXPORT, ANALYZE and the REPL see it as a forward trace's; per-pixel standard errors use the
         number of rays each pixel started (s^2 per traced line), not the whole trace's."""

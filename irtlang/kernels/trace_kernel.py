@@ -984,6 +984,67 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                     nvz = nwz if front else -nwz
                     cos_i = abs(ci)
                     diffuse = 0.0
+                    # expected-value next-event estimation over a fraction map's choice: every model this hit may
+                    # use sends its rays toward its target, weighted by the probability that the hit uses it; the
+                    # random choice above still decides the path's continuation, which then sends none.  The
+                    # same expectation, without the variance of the choice (a partly cloudy pixel: cloud or not)
+                    ev_nee = False
+                    if F_MAPS and F_IMPORTANCE and not nee and o_sc_cnt[o] > 0:
+                        for qq in range(o_sc_cnt[o]):
+                            if sp_kind[o_sc_first[o] + qq] == 2:
+                                ev_nee = True
+                                break
+                    if F_MAPS and F_IMPORTANCE and ev_nee:
+                        preach = 1.0
+                        kc = 0
+                        for qq in range(o_sc_cnt[o]):
+                            spn = o_sc_first[o] + qq
+                            kd = sp_kind[spn]
+                            pq = preach
+                            mq = -1
+                            if kd > 0:
+                                lat, lon = geodetic(lx, ly, lz)
+                                mp = sp_map[spn]
+                                vq = map_value(map_data, map_off[mp], map_nlat[mp], map_nlon[mp], lat, lon)
+                                if kd == 1:
+                                    cl = int(vq)
+                                    if cl >= 0 and cl < sp_cls_n[spn]:
+                                        mq = cls_models[sp_cls_off[spn] + cl]
+                                    preach = 0.0
+                                else:
+                                    vq = min(max(vq, 0.0), 1.0)
+                                    pq = preach * vq
+                                    mq = sp_model[spn]
+                                    preach *= 1.0 - vq
+                            else:
+                                mq = sp_model[spn]
+                                preach = 0.0
+                            tq = sp_tgt[spn]
+                            if mq >= 0 and tq >= 0 and pq > 0.0:
+                                mkq = mod_kind[mq]
+                                Pq = mod_P[mq]
+                                nr = sp_rays[spn]
+                                for q in range(nr):
+                                    qd = kc + q
+                                    v0, v1 = uniform2(seed, i, ev, path * 64 + 8 + 2 * qd)
+                                    ox_, oy_, oz_, om = _toward(phx, phy, phz, plx, ply, plz, o_bc, o_br, tq, v0, v1)
+                                    co = ox_ * nvx + oy_ * nvy + oz_ * nvz
+                                    f = _bsdf_eval(mkq, Pq, line, -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz)
+                                    cw = w * pq * f * abs(co) * om / nr
+                                    if nee_cut > 0.0 and cw > 0.0:
+                                        cw = _nee_roulette(cw, w * pq * om / (math.pi * nr), nee_cut,
+                                                           uniform2(seed, i, ev, path * 64 + 9 + 2 * qd)[0])
+                                    if cw > 0.0 and sp < SMAX:
+                                        if F_HISTORY and ev - 1 < H:
+                                            hist[ev - 1] = o * 8 + EV_S
+                                        _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev,
+                                              -1.0, 1.0, npath, FL_SCATTERED, j, opl, sx0, sy0, hist, H)
+                                        sp += 1
+                                        npath += 1
+                                        led[c, r_imp, C_ABS, line] -= cw
+                                kc += nr
+                            if preach <= 0.0:
+                                break
                     if F_SCATTER and sc >= 0:
                         mk = mod_kind[sc]
                         Pm = mod_P[sc]
@@ -1009,7 +1070,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                             diffuse = rho
                         # rays sent toward the target (next-event estimation), exact weights
                         tgt = sc_tgt
-                        if F_IMPORTANCE and tgt >= 0 and not nee:
+                        if F_IMPORTANCE and tgt >= 0 and not nee and not ev_nee:
                             nr = sc_n
                             for q in range(nr):
                                 v0, v1 = uniform2(seed, i, ev, path * 64 + 8 + 2 * q)
