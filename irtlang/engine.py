@@ -18,6 +18,7 @@ import csv
 import io
 import math
 import sys
+import time
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -215,6 +216,7 @@ class Engine:
 
         p = step.params
         csc, info = camera_scene(sc, cam, step.span)
+        t0 = time.perf_counter()
         try:
             res = run_trace(csc, seed=csc.seed, level=p["level"], halt=p["halt"], records=False, history=False,
                             progress=self.progress, runner=self.runner)
@@ -242,7 +244,8 @@ class Engine:
                if info["spectral"] else f"{info['rays_per_pixel_line']} per pixel and line, {info['lines']} lines")
         self.out(f"TRACE CAMERA {info['camera']}: {res.n_traced:,} camera rays ({how}, "
                  f"pixels {i0}..{i1 - 1} x {j0}..{j1 - 1}); "
-                 f"{img.sum():.6g} W on the window, median relative standard error {med:.2%} on lit pixels")
+                 f"{img.sum():.6g} W on the window, median relative standard error {med:.2%} on lit pixels; "
+                 f"{time.perf_counter() - t0:.1f} s")
 
     def _camera_sun_variables(self, csc, res, info, interp, step):
         """CAMERA_SUN[_filter]: the light's irradiance at 1 AU summed over each image's band (W/m2), weighted as
