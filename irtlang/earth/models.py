@@ -20,6 +20,7 @@ Every value is per wavelength line, in the order of bands_nm: the script's WAVEL
 """
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -174,6 +175,11 @@ def write_earth_includes(folder, bands_nm=surfaces.HRI_BANDS_NM, *, clamp: bool 
             np.save(f, afgl_belt_map(36))
         os.chmod(tmp, 0o644)
     out[BELT_MAP_FILE] = bp
+    # its sidecar: built-in data (the default tier), so a run's manifest names the tier it used
+    side = folder / (BELT_MAP_FILE + ".json")
+    side.write_text(json.dumps({"tier": "default", "source": "AFGL 1986 profiles by latitude belt for March "
+                                "(irtlang.earth.atmosphere.afgl_belt_map)", "proxy": False}, indent=1) + "\n")
+    out[BELT_MAP_FILE + ".json"] = side
     for name, lines in files.items():
         p = folder / name
         p.write_text("\n".join(lines) + "\n")

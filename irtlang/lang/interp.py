@@ -485,12 +485,7 @@ class Interpreter(BindContext):
             self.check_trace(span)
         if kind in ("TRACE", "LOAD_RAYS", "RESET"):   # a file this script saved keeps its TRACE's ledger
             self.rays_from = "LOADED" if kind == "LOAD_RAYS" and not params.get("in_run_folder") else kind
-        if self.rays_from == "LOADED" and (kind == "SPECTRUM_OF" or (kind == "STATS" and params.get("what")
-                                                                         in (None, "LEDGER"))):
-            what = "SPECTRUM OF" if kind == "SPECTRUM_OF" else "STATS LEDGER"
-            raise error(span, f"{what} needs the flux ledger of a TRACE: rays that LOAD RAYS reads from a file "
-                        "another run wrote carry none", "STATS POSITION, SPOTS, EXPORT work on loaded rays; the "
-                        "ledger of a file this script saves is kept")
+        # (a ray file carries its TRACE's ledger; one that does not is reported when the run reads it)
 
     def check_analyze_inputs(self, argv, base, span: Span) -> None:
         """The input files of an ANALYZE (its positional arguments) must be written earlier by this script (in

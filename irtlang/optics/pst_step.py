@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import math
 
-from ..lang.units import Quantity
+from ..core.units import Quantity
 from ..model import scene as M
 
 
 def run_pst(eng, step, interp) -> None:
-    from ..engine import RuntimeFailure
+    from ..core.diagnostics import RuntimeFailure
     from ..tracer import run_trace
 
     last = getattr(eng, "last_trace", None)

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ..lang.units import LENGTH, Quantity
+from ..core.units import LENGTH, Quantity
 
 
 def detector_frame(pk, obj_index: int):

@@ -6,14 +6,14 @@ import math
 
 import numpy as np
 
-from ..lang.units import LENGTH, POWER, Quantity
+from ..core.units import LENGTH, POWER, Quantity
 from ..model import scene as M
 from .spots import detector_frame, local_xy, reference, spot_stats, working_f_number
 
 
 def _field_results(eng, step):
     """[(field label, (fx, fy) deg or None, result)]: the 3 x 3 field grid traced again, or the current rays."""
-    from ..engine import RuntimeFailure
+    from ..core.diagnostics import RuntimeFailure
     from ..tracer import run_trace
 
     fields = step.params.get("fields")
@@ -43,7 +43,7 @@ def _field_results(eng, step):
 
 
 def run_spot_diagram(eng, step, interp) -> None:
-    from ..engine import RuntimeFailure
+    from ..core.diagnostics import RuntimeFailure
     from ..io.plots import spot_diagram
 
     saved = eng.result

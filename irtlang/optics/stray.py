@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..tracer import standard_error
+from ..core.stats import standard_error
 
 EVENT_NAMES = {1: "reflect", 2: "transmit", 3: "scatter", 4: "absorb"}
 

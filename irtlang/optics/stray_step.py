@@ -3,12 +3,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..lang.units import POWER, Quantity
+from ..core.units import POWER, Quantity
 from .stray import path_table
 
 
 def run_paths(eng, step, interp) -> None:
-    from ..engine import RuntimeFailure
+    from ..core.diagnostics import RuntimeFailure
 
     m = eng._selected(step, "STATS PATHS")
     r = eng.result.records
