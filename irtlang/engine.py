@@ -671,12 +671,14 @@ class Engine:
         self.result = _LoadedResult(rf, step.scene)
         self.scene = step.scene
         src = self._saved_from.get(str(Path(name).resolve())) if step.params.get("in_run_folder") else None
-        if src is not None and getattr(src[0], "ledger", None) is not None:
-            # a file this run saved: its flux ledger is the one of the TRACE that wrote it (STATS LEDGER,
-            # SPECTRUM OF after the LOAD, as LANGUAGE.md's example does)
+        if src is not None and rf.ledger is None and getattr(src[0], "ledger", None) is not None:
+            # a file this run saved without a ledger: its flux ledger is the one of the TRACE that wrote it
+            # (STATS LEDGER, SPECTRUM OF after the LOAD, as LANGUAGE.md's example does); files SAVE RAYS writes
+            # now carry their ledger themselves
             res, self.scene = src
             self.result.ledger, self.result.ledger_sq = res.ledger, res.ledger_sq
-            self.result.rows, self.result.n_traced = res.rows, res.n_traced
+            self.result.n_traced = res.n_traced
+            self.result.packed.row_names = list(res.packed.row_names)
             self.result.packed.n_rows, self.result.packed.object_names = res.packed.n_rows, res.packed.object_names
         missing = [what for what, ok in (("the events at each interaction (STATS PATHS shows '?')", rf.event_kinds),
                                          ("the start points (standard errors take every ray as independent)",
