@@ -218,8 +218,8 @@ class Engine:
         csc, info = camera_scene(sc, cam, step.span)
         t0 = time.perf_counter()
         try:
-            res = run_trace(csc, seed=csc.seed if self.seed is None else self.seed, level=p["level"], halt=p["halt"], records=False, history=False,
-                            progress=self.progress, runner=self.runner)
+            res = run_trace(csc, seed=csc.seed if self.seed is None else self.seed, level=p["level"], halt=p["halt"],
+                            records=False, history=False, progress=self.progress, runner=self.runner)
         except MissingFeature as e:
             raise MissingCapability(e.span, e.what, e.capability) from None
         img, img2 = res.images.pop(csc.objects[info["light"]].name)
