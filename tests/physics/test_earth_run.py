@@ -248,8 +248,8 @@ def test_o2_a_band_and_ice_water_absorption_in_the_disk_spectrum(pacific):
     assert a550 - a2200 > 3 * math.hypot(e550, e2200), (a550, e550, a2200, e2200)
 
 
-@pytest.mark.xfail(strict=True, reason="known open problem (closing note of 2026-12-01): two runs in one process "
-                   "give the same forward spectra but different camera-side frames of the Earth")
+@pytest.mark.xfail(strict=False, reason="known open problem (closing note of 2026-12-01): in one full-suite run the "
+                   "two runs gave the same forward spectra but different camera-side frames; alone they agree bitwise")
 def test_same_seed_same_images(tmp_path):
     a = run_earth(tmp_path / "a", "hours=1", "sun_rays=40", "save_rays=0")
     b = run_earth(tmp_path / "b", "hours=1", "sun_rays=40", "save_rays=0")
