@@ -42,7 +42,8 @@ def frame_error(run: Path, out: Path) -> Path:
     rel = np.where(img > 0, se / np.where(img > 0, img, 1), np.nan)
     lit = img > 0.02 * img.max()
     fig, ax = plt.subplots(1, 2, figsize=(11, 4.6))
-    a = ax[0].imshow(img * 1e12, origin="lower", cmap="gray")
+    a = ax[0].imshow(img * 1e12, origin="lower", cmap="gray", vmin=0,
+                     vmax=np.percentile(img[lit] * 1e12, 99.5))   # a few bright outliers would set the scale
     fig.colorbar(a, ax=ax[0], label="pW per pixel")
     ax[0].set_title(f"{f.stem[:13]}: 550 nm band", fontsize=10)
     b = ax[1].imshow(np.where(lit, rel * 100, np.nan), origin="lower", cmap="viridis", vmin=0,
