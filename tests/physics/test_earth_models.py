@@ -68,7 +68,8 @@ def test_cloud_and_aerosol_lines():
 def test_include_files_make_a_valid_earth_script(tmp_path):
     paths = models.write_earth_includes(tmp_path, BANDS)
     assert set(paths) == {"earth_surfaces.inr", "earth_atmosphere.inr", "earth_clouds.inr", "earth_aerosols.inr",
-                          "earth_maps.inr", "earth_media.inr", "atmosphere_belts.npy"}
+                          "earth_maps.inr", "earth_media.inr", "atmosphere_belts.npy",
+                          "atmosphere_belts.npy.json"}
     maps = (tmp_path / "earth_maps.inr").read_text()
     for layer in ("LOW", "MIDDLE", "HIGH"):
         assert f"LATLON DEFAULT CLOUD_{layer}" in maps
