@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -217,6 +218,33 @@ def _cmd_series(args):
                                                                                          np.inf)))}
 
 
+def _cmd_despace(args):
+    from .despace import despace_study
+
+    res = despace_study(args.observed, args.sweep, design=args.design, truth=args.truth,
+                        free_scale=not args.fixed_scale, margin=args.margin, smooth=args.smooth,
+                        maps=bool(args.plot), bin=args.bin)
+    images = res.pop("_images")
+    if args.output:
+        from ._common import atomic_path
+
+        with atomic_path(args.output) as tmp:
+            Path(tmp).write_text(json.dumps(res, indent=2) + "\n")
+    if args.plot:
+        from .plots import plot_despace_maps
+
+        plot_despace_maps(images, res, args.plot)
+    if args.curve_plot:
+        from .plots import plot_despace_curve
+
+        plot_despace_curve(res, args.curve_plot)
+    return {"best_spacing_um": res["best_spacing_um"], "uncertainty_um": res["uncertainty_um"],
+            "refocus_mm": res["refocus_mm"], "reduced_chi2_min": res["reduced_chi2_min"],
+            "at_edge_of_sweep": res["at_edge_of_sweep"], "esf_slope_spacing_um": res["esf_slope_spacing_um"],
+            "truth_um": res["truth_um"], "spacings_um": [r["spacing_um"] for r in res["table"]],
+            "chi2": [r["chi2"] for r in res["table"]]}
+
+
 def _cmd_animate(args):
     from .animate import animate_folder
 
@@ -323,6 +351,23 @@ def build_parser(subparsers):
     p.add_argument("--phase-deg", type=float, required=True, help="phase angle (Sun-body-observer), degrees")
     p.add_argument("--radius-km", type=float, required=True, help="radius of the body, km")
     p.add_argument("--area-m2", type=float, required=True, help="collecting area of the aperture, m2")
+
+    p = add("despace", _cmd_despace, "the defocus study: the mirror spacing whose simulated frames match an "
+            "observed one (chi2 with both frames' standard errors, a parabola; analysis/despace.py)")
+    p.add_argument("observed", help="observed frame (.npy; its NAME.stderr.npy beside it, if any)")
+    p.add_argument("--sweep", required=True, help="folder of simulated frames spacing_<um>um.npy (with .stderr.npy)")
+    p.add_argument("-o", "--output", help="write the fit and the sweep's table as JSON (despace_fit.json)")
+    p.add_argument("--plot", help="write the maps per spacing: frame and edges, defocus, difference (PNG)")
+    p.add_argument("--curve-plot", help="write the mismatch curve chi2(spacing) with the fit (PNG)")
+    p.add_argument("--design", nargs=3, type=float, metavar=("F1_MM", "M", "E_MM"),
+                   help="the Cassegrain's primary focal length, secondary magnification and back focus behind the "
+                        "primary vertex: the paraxial refocus (refocus_mm)")
+    p.add_argument("--truth", type=float, help="the spacing an identical twin was traced at (recorded, not used)")
+    p.add_argument("--fixed-scale", action="store_true", help="no free scale between observation and simulation")
+    p.add_argument("--margin", type=int, default=12, help="px around the lit disk in the fit's region (default 12)")
+    p.add_argument("--bin", type=int, default=4, help="chi2 over bin x bin pixel blocks (default 4)")
+    p.add_argument("--smooth", type=float, default=1.0,
+                   help="Gaussian sigma (px) of the smoothing before the maps and ESF slopes (default 1)")
 
     p = add("animate", _cmd_animate, "every PNG of a folder, sorted by name, as an animated GIF or MP4")
     p.add_argument("frames_dir", help="folder of PNG frames")

@@ -11,7 +11,8 @@ from matplotlib.figure import Figure
 
 from ._common import atomic_path
 
-__all__ = ["plot_rgb", "plot_defocus", "plot_mtf", "plot_esf", "plot_psf", "plot_spectra", "plot_time_wavelength"]
+__all__ = ["plot_rgb", "plot_defocus", "plot_mtf", "plot_esf", "plot_psf", "plot_spectra", "plot_time_wavelength",
+           "plot_despace_maps", "plot_despace_curve"]
 
 
 def _figure(ncols=1, width=5.0, height=4.0):
@@ -206,4 +207,105 @@ def plot_mean_spectrum(wavelengths_nm, mean, path, *, stderr=None, spread=None, 
     if title:
         ax.set_title(title)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=3, fontsize=7, frameon=False)
+    return _save(fig, path)
+
+
+def plot_despace_maps(images, result, path, *, rows=6):
+    """The defocus study's maps, as the seed's Fig. 8: one row for the observation and one per spacing (up to
+    ``rows``, spread over the sweep, the best one included): the frame with its Canny edges, the Zhuo & Sim
+    defocus (blur sigma, px, at the edges) and the difference observation - scale x simulation.  North up."""
+    sweep = images["sweep"]
+    spacings = list(images["spacings"])
+    if not sweep:
+        raise ValueError("no maps to plot (the study ran without maps)")
+    best = result["best_spacing_um"]
+    pick = sorted(set(np.linspace(0, len(spacings) - 1, max(min(rows, len(spacings)), 2)).round().astype(int).tolist())
+                  | {int(np.argmin(np.abs(np.asarray(spacings) - best)))})
+    n = len(pick) + 1
+    fig = Figure(figsize=(11.0, 3.0 * n), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(n, 3, squeeze=False)
+    region = images["region"]
+    ys, xs = np.nonzero(region)
+    box = (xs.min(), xs.max() + 1, ys.min(), ys.max() + 1) if xs.size else None
+    vmax_img = float(np.percentile(images["observed"], 99.7)) or 1.0
+    diffs = [sweep[k]["difference"] for k in pick]
+    lim = float(np.nanpercentile(np.abs(np.concatenate([d[region] for d in diffs])), 99.5)) or 1.0
+    sig = [sweep[k]["defocus"] for k in pick]
+    smax = float(np.nanpercentile(np.concatenate([s[np.isfinite(s)] for s in sig] + [np.zeros(1)]), 95)) or 1.0
+
+    def show(ax, img, title, **kw):
+        ax.imshow(img, origin="lower", interpolation="nearest", **kw)
+        if box is not None:
+            ax.set_xlim(box[0], box[1])
+            ax.set_ylim(box[2], box[3])
+        ax.set_title(title, fontsize=9)
+        ax.set_xticks([])
+        ax.set_yticks([])
+
+    def edges_overlay(ax, edges):
+        ov = np.zeros(np.shape(edges) + (4,))
+        ov[np.asarray(edges, bool)] = (1.0, 0.15, 0.1, 0.9)
+        ax.imshow(ov, origin="lower", interpolation="nearest")
+
+    a = axes[0]
+    show(a[0], images["observed"], "observation (smoothed) and edges", cmap="gray", vmin=0, vmax=vmax_img)
+    if images.get("observed_edges") is not None:
+        edges_overlay(a[0], images["observed_edges"])
+    for ax in a[1:]:
+        ax.axis("off")
+    txt = (f"best spacing {best:+.2f} +/- {result['uncertainty_um']:.2f} um"
+           + (f"\nrefocus {result['refocus_mm']:.3f} mm toward the primary" if result.get("refocus_mm") is not None
+              else "")
+           + (f"\n(twin traced at {result['truth_um']:+.3f} um)" if result.get("truth_um") is not None else ""))
+    a[1].text(0.0, 0.5, txt, transform=a[1].transAxes, fontsize=11, va="center")
+    for r, k in enumerate(pick, start=1):
+        m = sweep[k]
+        s = spacings[k]
+        show(axes[r][0], m["image"], f"{s:+.1f} um: frame and edges", cmap="gray", vmin=0, vmax=vmax_img)
+        edges_overlay(axes[r][0], m["edges"])
+        d = np.where(np.isfinite(m["defocus"]), m["defocus"], np.nan)
+        show(axes[r][1], np.zeros_like(d), "", cmap="gray", vmin=0, vmax=1)
+        im = axes[r][1].imshow(d, origin="lower", interpolation="nearest", cmap="viridis", vmin=0, vmax=smax)
+        axes[r][1].set_title(f"{s:+.1f} um: defocus at the edges (sigma, px)", fontsize=9)
+        fig.colorbar(im, ax=axes[r][1], shrink=0.8)
+        show(axes[r][2], np.where(region, m["difference"], np.nan), f"{s:+.1f} um: observation - simulation",
+             cmap="RdBu_r", vmin=-lim, vmax=lim)
+    return _save(fig, path, dpi=90)
+
+
+def plot_despace_curve(result, path):
+    """The defocus study's mismatch curve: chi2 / dof against the spacing with the parabola of the fit, the best
+    spacing and its uncertainty (and the twin's truth), and the median ESF slope along the limb beside it."""
+    table = result["table"]
+    s = np.array([r["spacing_um"] for r in table])
+    red = np.array([r["reduced_chi2"] for r in table])
+    fig, (ax, bx) = _figure(2, 5.2, 4.0)
+    ax.plot(s, red, "o", color="k", label="sweep frames")
+    lo, hi = result["parabola_points"]
+    best, unc = result["best_spacing_um"], result["uncertainty_um"]
+    if hi - lo == 3:
+        c = np.polyfit(s[lo:hi], red[lo:hi], 2)
+        xx = np.linspace(s[lo], s[hi - 1], 200)
+        ax.plot(xx, np.polyval(c, xx), "-", color="C0", label="parabola through 3 frames")
+    ax.axvline(best, color="C3", label=f"best {best:+.2f} um")
+    if np.isfinite(unc):
+        ax.axvspan(best - unc, best + unc, color="C3", alpha=0.2, label=f"+/- {unc:.2f} um")
+    if result.get("truth_um") is not None:
+        ax.axvline(result["truth_um"], color="C2", ls="--", label=f"twin traced at {result['truth_um']:+.2f} um")
+    ax.set_xlabel("change of the mirror spacing [um]")
+    ax.set_ylabel("chi2 / dof (observation vs simulation)")
+    ax.legend(fontsize=8)
+    ax.set_title("mismatch")
+    slope = np.array([r["esf_slope_per_px"] for r in table])
+    bx.plot(s, slope, "o-", color="k", label="simulation (median over the limb regions)")
+    if np.isfinite(result.get("observed_esf_slope_per_px", np.nan)):
+        bx.axhline(result["observed_esf_slope_per_px"], color="C3", label="observation")
+    if result.get("esf_slope_spacing_um") is not None:
+        bx.axvline(result["esf_slope_spacing_um"], color="C3", ls=":",
+                   label=f"match at {result['esf_slope_spacing_um']:+.1f} um")
+    bx.set_xlabel("change of the mirror spacing [um]")
+    bx.set_ylabel("ESF slope [1/px]")
+    bx.legend(fontsize=8)
+    bx.set_title("edge-spread slope along the limb")
     return _save(fig, path)

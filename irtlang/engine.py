@@ -575,6 +575,13 @@ class Engine:
                 bands = (list(filters[0]), list(centre))
                 if step.params.get("filter") is not None:
                     k = step.params["filter"]
+                    fname = step.params.get("filter_name")
+                    if fname is not None:      # by name: a TRACE CAMERA ... FILTER image holds one of the filters
+                        upper = [n.upper() for n in filters[0]]
+                        if fname.upper() not in upper:
+                            raise RuntimeFailure(step.span, f"EXPORT {obj.name} FILTER {fname}: the last trace formed "
+                                                 f"only the image of {', '.join(filters[0])}")
+                        k = upper.index(fname.upper())
                     img, img2 = img[k:k + 1], img2[k:k + 1]
                     what = f"filter {filters[0][k]}"
                     bands = ([filters[0][k]], [centre[k]])
@@ -694,7 +701,7 @@ class Engine:
         import io as _io
 
         from .core.hooks import analysis_provider
-        from .lang.commands import analysis_parser
+        from .lang.commands import ANALYSIS_OUTPUT_OPTIONS, analysis_parser
 
         argv, written = [], []
         raw = list(step.params["argv"])
@@ -703,7 +710,7 @@ class Engine:
                 argv.append(a)
                 continue
             name = a[len("\0path:"):]
-            if k > 0 and raw[k - 1] in ("--output", "--plot", "--mean-plot", "--mean-output"):
+            if k > 0 and raw[k - 1] in ANALYSIS_OUTPUT_OPTIONS:
                 out = self.folder.output(name)
                 written.append(out)
                 argv.append(str(out))

@@ -119,7 +119,7 @@ def _reset(it, b, st):
 @command("EPOCH", Form((Path("utc"),), (Clause("PLUS", (V("dt", TIME),), doc="a time added to the date"),)),
          "system", "a date and time (UTC): sets the Sun's position and the Earth's sidereal angle as variables")
 def _epoch(it, b, st):
-    """EPOCH '2008-03-18T18:19' [PLUS 3 H] sets EPOCH_UTC and EPOCH_TAG (strings), GAST (Greenwich apparent
+    """EPOCH '2008-03-18T18:19' [PLUS 3 H] (or a file name holding one EPOCH_TAG) sets EPOCH_UTC and EPOCH_TAG (strings), GAST (Greenwich apparent
     sidereal time), SUN_RA, SUN_DEC, SUBSOLAR_LAT, SUBSOLAR_LON (angles) and SUN_DIST (a length), from the
     solar ephemeris of irtlang.earth.ephemeris (Meeus; 0.01 deg, years 1800-2200).  The frame of SUN_RA and
     SUN_DEC is the equatorial frame of date (x to the equinox, z to the pole); an Earth-fixed frame turns from
@@ -128,12 +128,20 @@ def _epoch(it, b, st):
 
     from ..earth.ephemeris import AU_M, YEAR_MAX, YEAR_MIN, sun_position
 
+    import re
+
     text = b["utc"].strip()
     try:
         t = _dt.datetime.fromisoformat(text.replace("Z", "").replace(" UTC", ""))
     except ValueError:
-        raise error(b.span_of("utc"), f"EPOCH '{text}' is not a date and time",
-                    "write it as ISO 8601 UTC: '2008-03-18T18:19' or '2008-03-18 18:19:00'") from None
+        # a text holding an EPOCH_TAG, such as a frame's file name: 'frames/20080318T1819_550nm.npy'
+        tags = re.findall(r"(?<!\d)(\d{8}T\d{4})(?!\d)", text.replace("\\", "/").rsplit("/", 1)[-1])
+        t = _dt.datetime.strptime(tags[-1], "%Y%m%dT%H%M") if len(tags) == 1 else None
+        if t is None:
+            raise error(b.span_of("utc"), f"EPOCH '{text}' is not a date and time" + (
+                        f" (its name holds {len(tags)} EPOCH_TAGs)" if tags else ""),
+                        "write it as ISO 8601 UTC: '2008-03-18T18:19' or '2008-03-18 18:19:00', or give a file "
+                        "name holding one EPOCH_TAG (YYYYMMDDTHHMM), as 'frames/20080318T1819_550nm.npy'") from None
     if t.tzinfo is not None:
         t = t.astimezone(_dt.timezone.utc).replace(tzinfo=None)
     if "dt" in b:
@@ -726,7 +734,10 @@ def _square(x):
                                    doc="k lines per camera ray position, drawn from the images' weights (default: every line)"),
                             Clause("WINDOW", (V("i0", integer=True, check=nonneg), V("i1", integer=True, check=positive),
                                               V("j0", integer=True, check=nonneg), V("j1", integer=True, check=positive)),
-                                   doc="only pixel columns i0..i1-1 and rows j0..j1-1 (from 0)"))),
+                                   doc="only pixel columns i0..i1-1 and rows j0..j1-1 (from 0)"),
+                            Clause("FILTER", (Ref("cam_filter", "spectrum"),),
+                                   doc="only that filter's image of the camera's DETECTOR FILTERS, every line drawn "
+                                       "from its band"))),
          "trace", "trace every source defined since the last TRACE [CAMERA obj AIM obj: a camera-side image]")
 def _trace(it, b, st):
     s = it.state
@@ -754,10 +765,10 @@ def _trace(it, b, st):
     _check_scene(it, b)
     _warn_consider(it, b)
     camera = None
-    if "camera" in b or "aim" in b or "per_pixel" in b or "i0" in b or "spectral" in b:
+    if "camera" in b or "aim" in b or "per_pixel" in b or "i0" in b or "spectral" in b or "cam_filter" in b:
         if "camera" not in b or "aim" not in b:
             raise error(b.span, "a camera-side TRACE needs both CAMERA obj and AIM obj",
-                        "TRACE CAMERA fpa AIM secondary [RAYS n] [SPECTRAL k] [WINDOW i0 i1 j0 j1]")
+                        "TRACE CAMERA fpa AIM secondary [RAYS n] [SPECTRAL k] [WINDOW i0 i1 j0 j1] [FILTER f]")
         if "error" in b:
             raise error(b.span, "TRACE CAMERA cannot be combined with UNTIL ERROR", "give RAYS n per pixel instead")
         cam = s.objects[b["camera"]]
@@ -772,10 +783,21 @@ def _trace(it, b, st):
         if win is not None and not (win[0] < win[1] <= cam.detector.nx and win[2] < win[3] <= cam.detector.ny):
             raise error(b.span, f"WINDOW {win[0]} {win[1]} {win[2]} {win[3]} is not inside the detector's "
                         f"{cam.detector.nx} x {cam.detector.ny} pixels", "columns i0 < i1 <= nx, rows j0 < j1 <= ny")
+        filters = [f for f, _ in cam.detector.filters] if cam.detector.filters else []
+        only = None
+        if "cam_filter" in b:
+            names = [f.upper() for f in filters]
+            if b["cam_filter"] not in names:
+                raise error(b.span_of("cam_filter"), f"TRACE CAMERA ... FILTER: the camera {cam.name} has no filter "
+                            f"{it.state.spectra[b['cam_filter']].name}" + (f" (its filters: {', '.join(filters)})"
+                                                                           if filters else " (its DETECTOR has no FILTERS)"),
+                            "name one of the camera DETECTOR's FILTERS", notes=[(cam.span, "the camera object")])
+            only = filters[names.index(b["cam_filter"])]
+            filters = [only]
         camera = {"camera": b["camera"], "aim": b["aim"], "sub": math.isqrt(int(b.get("per_pixel", 1))),
-                  "window": win, "spectral": int(b.get("spectral", 0))}
+                  "window": win, "spectral": int(b.get("spectral", 0)), "filter": only}
         # the light's band irradiance at 1 AU (W/m2) per image of the camera, for I/F; set by the run, 0 here
-        for fname in ([f for f, _ in cam.detector.filters] if cam.detector.filters else [""]):
+        for fname in (filters or [""]):
             it.assign("CAMERA_SUN" + (f"_{fname}" if fname else ""), Quantity(0.0, NONE), b.span)
     it.step("TRACE", {"level": s.level, "halt": s.halt, "until_error": b.get("error"), "until_target": b.get("target"),
                       "camera": camera}, b.span)
@@ -1094,6 +1116,7 @@ def _export(it, b, st):
                         f"{it.state.spectra[b['filter']].name}" + (f" (its filters: {', '.join(n for n, _ in det.filters)})"
                                                                   if names else " (its DETECTOR has no FILTERS)"))
         extra["filter"] = names.index(b["filter"])
+        extra["filter_name"] = det.filters[extra["filter"]][0]   # a TRACE CAMERA ... FILTER image holds one filter
     it.step("EXPORT", {"object": b["object"], "file": f, **extra}, b.span)
 
 
@@ -1141,7 +1164,9 @@ def _pst(it, b, st):
                     "axis": b.get("axis"), "field": b.get("field")}, b.span)
 
 
-ANALYSES = ("RGB", "PSF", "MTF", "ESF", "DEFOCUS", "DISK", "SPECTRUM", "SERIES", "ANIMATE")
+ANALYSES = ("RGB", "PSF", "MTF", "ESF", "DEFOCUS", "DESPACE", "DISK", "SPECTRUM", "SERIES", "ANIMATE")
+# the options of the analysis subcommands that name files the analysis writes (in the run folder)
+ANALYSIS_OUTPUT_OPTIONS = ("--output", "--plot", "--mean-plot", "--mean-output", "--curve-plot")
 
 
 def analysis_argv(it, what: str, items) -> list:

@@ -465,9 +465,11 @@ class Interpreter(BindContext):
             if kind == "SAVE_RAYS":
                 self.saved[_normal(f)] = span
         if kind == "ANALYZE":
+            from .commands import ANALYSIS_OUTPUT_OPTIONS
+
             argv = params.get("argv", ())
             for prev, a in zip(argv, argv[1:]):
-                if prev in ("--output", "--plot", "--mean-plot", "--mean-output") and isinstance(a, str) and a.startswith("\0path:"):
+                if prev in ANALYSIS_OUTPUT_OPTIONS and isinstance(a, str) and a.startswith("\0path:"):
                     name = a[len("\0path:"):]
                     self.output_name(name, self._arg_span(name, span))
                     self.outputs.add(_normal(name))

@@ -5,6 +5,7 @@ The first syntax error stops parsing and is raised as an ``IrtError`` with a loc
 from __future__ import annotations
 
 import functools
+from collections import OrderedDict
 from importlib import resources
 from pathlib import Path
 from typing import Callable
@@ -397,16 +398,31 @@ def read_source(path: str | Path, display_name: str | None = None, max_bytes: fl
     return Source(name, _check_text(data, name))
 
 
+# the statements of the texts parsed last, by (name, text): a file INCLUDEd again (in a loop, after SYSTEM NEW) is
+# parsed once.  The statements are immutable (frozen dataclasses and tuples); their spans point at the Source
+# of the first parse, which has the same name and text.
+_FLAT_CACHE: OrderedDict = OrderedDict()
+_FLAT_CACHE_SIZE = 32
+
+
 def parse_source(src: Source, is_macro_head: Callable[[str], bool] | None = None) -> A.Program:
     """Parse a whole script into a Program of nested statements."""
     text = src.text
     if not text.endswith("\n"):
         text += "\n"
-    try:
-        tree = lark_parser().parse(text, start="start")
-    except UnexpectedInput as e:
-        raise _syntax_error(e, src, text) from None
-    flat = _transform(_ToAst(src), tree)
+    key = (src.name, text)
+    flat = _FLAT_CACHE.get(key)
+    if flat is None:
+        try:
+            tree = lark_parser().parse(text, start="start")
+        except UnexpectedInput as e:
+            raise _syntax_error(e, src, text) from None
+        flat = tuple(_transform(_ToAst(src), tree))
+        _FLAT_CACHE[key] = flat
+        while len(_FLAT_CACHE) > _FLAT_CACHE_SIZE:
+            _FLAT_CACHE.popitem(last=False)
+    else:
+        _FLAT_CACHE.move_to_end(key)
     return A.Program(tuple(build_blocks(flat, is_macro_head or (lambda h: h.upper() == "MACRO"))), src)
 
 

@@ -89,8 +89,11 @@ def camera_scene(scene: M.Scene, params: dict, span: Span) -> tuple[M.Scene, dic
     # the lines the camera sees
     L = scene.n_lines
     qe = det.qe or (1.0,) * L
-    if det.filters:
-        response = tuple(tuple(float(tr[k]) * qe[k] for _, tr in det.filters) for k in range(L))
+    filters = det.filters
+    if params.get("filter") and filters:     # TRACE CAMERA ... FILTER f: only that image, lines from its band
+        filters = tuple(f for f in filters if f[0].upper() == params["filter"].upper()) or filters
+    if filters:
+        response = tuple(tuple(float(tr[k]) * qe[k] for _, tr in filters) for k in range(L))
     else:
         response = tuple((float(qe[k]),) for k in range(L))
     mask = tuple(max(r) > 0.0 for r in response)
@@ -104,7 +107,7 @@ def camera_scene(scene: M.Scene, params: dict, span: Span) -> tuple[M.Scene, dic
         lname, (M.Surface("SPHERE", M.frozen_params({"radius": lp["radius"]}), M.Transform(T=tuple(lp["centre"])),
                           None, light.span),),
         interface=M.Interface("absorb", None, "AIR", "AIR", light.span),
-        detector=M.Detector(i1 - i0, j1 - j0, span, qe=det.qe, filters=det.filters, start=extent),
+        detector=M.Detector(i1 - i0, j1 - j0, span, qe=det.qe, filters=filters, start=extent),
         group=light.group, span=light.span)
     new_objs = {}
     for k, o in objs.items():
