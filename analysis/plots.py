@@ -210,7 +210,7 @@ def plot_mean_spectrum(wavelengths_nm, mean, path, *, stderr=None, spread=None, 
     return _save(fig, path)
 
 
-def plot_despace_maps(images, result, path, *, rows=6):
+def plot_despace_maps(images, result, path, *, rows=5):
     """The defocus study's maps, as the seed's Fig. 8: one row for the observation and one per spacing (up to
     ``rows``, spread over the sweep, the best one included): the frame with its Canny edges, the Zhuo & Sim
     defocus (blur sigma, px, at the edges) and the difference observation - scale x simulation.  North up."""
@@ -271,7 +271,7 @@ def plot_despace_maps(images, result, path, *, rows=6):
         fig.colorbar(im, ax=axes[r][1], shrink=0.8)
         show(axes[r][2], np.where(region, m["difference"], np.nan), f"{s:+.1f} um: observation - simulation",
              cmap="RdBu_r", vmin=-lim, vmax=lim)
-    return _save(fig, path, dpi=90)
+    return _save(fig, path, dpi=72)
 
 
 def plot_despace_curve(result, path):

@@ -20,6 +20,20 @@ SCRIPT = ROOT / "examples_scripts" / "earth_defocus.inr"
 TRUTH = 47.0
 
 
+def test_spacing_delta_is_a_default_of_the_earth_script():
+    """`irt run examples_scripts/earth.inr --set spacing_delta=40` moves the traced secondary 40 um away from the
+    primary (earth_scene.inr's DEFAULT; the design spacing is f1 (1 - k) of cassegrain_design.inr)."""
+    from irtlang.lang.interp import check_file
+
+    f1, m, e = 1028.7, 10.207, 300.0
+    d0 = f1 * (1 - (f1 + e) / (m * f1 + f1))     # mm
+    for sd in (0.0, 40.0):
+        it = check_file(ROOT / "examples_scripts" / "earth.inr", ["hours=1", f"spacing_delta={sd}"])
+        st = next(s for s in it.steps if s.kind == "TRACE")
+        z = st.scene.objects["SECONDARY"].surfaces[0].frame.T[2]      # m: the scene model's canonical unit
+        assert z * 1e3 == pytest.approx(d0 + sd * 1e-3, abs=1e-9), sd
+
+
 @pytest.mark.slow
 def test_identical_twin_recovers_the_spacing(tmp_path, capsys):
     out = tmp_path / "run"

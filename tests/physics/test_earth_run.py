@@ -41,10 +41,10 @@ def run_earth(out: Path, *sets: str) -> Path:
     return out
 
 
-def frame(out: Path, tag: str, band: int) -> np.ndarray:
+def frame(out: Path, tag: str, band: int, window: int = 256) -> np.ndarray:
     a = np.load(out / "frames" / f"{tag}_{band}nm.npy")
-    # the camera-side frames: the 256 x 256 pixel window about the detector's centre (TRACE CAMERA ... WINDOW)
-    assert a.shape == (1, 256, 256) and np.all(np.isfinite(a)) and np.all(a >= 0)
+    # the camera-side frames: the window x window pixels about the detector's centre (TRACE CAMERA ... WINDOW)
+    assert a.shape == (1, window, window) and np.all(np.isfinite(a)) and np.all(a >= 0)
     return a[0]
 
 
@@ -251,10 +251,11 @@ def test_o2_a_band_and_ice_water_absorption_in_the_disk_spectrum(pacific):
 @pytest.mark.xfail(strict=False, reason="known open problem (closing note of 2026-12-01): in one full-suite run the "
                    "two runs gave the same forward spectra but different camera-side frames; alone they agree bitwise")
 def test_same_seed_same_images(tmp_path):
-    a = run_earth(tmp_path / "a", "hours=1", "sun_rays=40", "save_rays=0")
-    b = run_earth(tmp_path / "b", "hours=1", "sun_rays=40", "save_rays=0")
+    small = ("hours=1", "sun_rays=40", "save_rays=0", "window=96", "spectral_samples=7")   # the limb's window
+    a = run_earth(tmp_path / "a", *small)
+    b = run_earth(tmp_path / "b", *small)
     for band in (450, 850):
-        fa, fb = frame(a, "20080318T1819", band), frame(b, "20080318T1819", band)
+        fa, fb = frame(a, "20080318T1819", band, 96), frame(b, "20080318T1819", band, 96)
         assert fa.sum() > 0 and np.array_equal(fa, fb)
     assert (a / "disk_spectra.csv").read_text() == (b / "disk_spectra.csv").read_text()
 
