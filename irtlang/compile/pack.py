@@ -267,13 +267,28 @@ def shell_families(pk) -> tuple:
 _MODEL_PACKS: dict = {}
 
 
+def _exact_key(v):
+    """A hashable key that tells apart any two different parameter values (repr() would not: NumPy prints 8
+    digits, so two tables differing in the 9th would share a packed block)."""
+    if isinstance(v, np.ndarray):
+        return ("ndarray", v.dtype.str, v.shape, v.tobytes())
+    if isinstance(v, (list, tuple)):
+        return (type(v).__name__,) + tuple(_exact_key(x) for x in v)
+    if isinstance(v, dict):
+        return ("dict",) + tuple(sorted((k, _exact_key(x)) for k, x in v.items()))
+    if isinstance(v, float):
+        return ("float", v.hex())
+    return v
+
+
 def _pack_model(kind: str, params, L: int) -> np.ndarray:
     """A scatter model's parameter block, remembered for the session: a script that traces many times (the
     Earth's hourly frames) packs its slab tables once."""
     from ..plugins.bsdfs import REGISTRY as BSDFS
 
     try:
-        key = (kind, L, repr(sorted((k, v) for k, v in dict(params).items())))
+        key = (kind, L, tuple(sorted((k, _exact_key(v)) for k, v in dict(params).items())))
+        hash(key)
     except TypeError:
         return BSDFS[kind].pack(params, L)
     blk = _MODEL_PACKS.get(key)

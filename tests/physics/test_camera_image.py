@@ -67,16 +67,9 @@ def test_lambert_sphere_closed_form(tmp_path, mode, scene, albedo):
         assert lit.sum() > 150
 
 
-_OPEN = "known open problem (closing note of 2026-12-01): "
-
-
 @pytest.mark.parametrize("scene,spectral", [
     ("lambert", 0), ("map", 0),
-    pytest.param("slab", 0, marks=pytest.mark.xfail(strict=True, reason=_OPEN + "the camera and forward images of "
-                                                    "the Rayleigh slab over the glint ocean differ (chi2/dof 3.3)")),
-    pytest.param("shell", 0, marks=pytest.mark.xfail(strict=True, reason=_OPEN + "the refracting-shell scene "
-                                                     "leaves no pixel measured by both estimators")),
-    pytest.param("slab", 2, marks=pytest.mark.xfail(strict=True, reason=_OPEN + "as slab")),
+    ("slab", 0), ("shell", 0), ("slab", 2),
 ])
 def test_camera_agrees_with_forward(tmp_path, scene, spectral):
     """spectral = 2: each camera ray position sends 2 rays whose lines are drawn from the lines' weights."""
