@@ -9,6 +9,7 @@ examples, so ``INCLUDE 'cassegrain.inr'`` works from a user's own folder.  ``irt
 from __future__ import annotations
 
 import os
+import re
 import shutil
 from pathlib import Path
 
@@ -71,8 +72,9 @@ def _tree(d: Path) -> list[Path]:
 
 
 def copy_examples(dest: Path, names=None, *, force: bool = False) -> list[Path]:
-    """Copy the examples into dest: all of them, or the named scripts; the includes (earth/) and data (data/)
-    always come along, since the scripts refer to them.  Existing files stay unless force."""
+    """Copy the examples into dest: all of them, or the named scripts with the scripts beside them that they
+    INCLUDE; the includes (earth/) and data (data/) always come along, since the scripts refer to them.  Existing
+    files stay unless force."""
     src = examples_dir()
     files = _tree(src)
     if names:
@@ -83,6 +85,14 @@ def copy_examples(dest: Path, names=None, *, force: bool = False) -> list[Path]:
             if n not in known:
                 raise KeyError(f"no example named {n!r}; `irt examples` lists them")
             want.add(n)
+        # and the scripts beside them that they INCLUDE (earth_defocus.inr: earth_scene.inr, cassegrain.inr ...)
+        todo = list(want)
+        while todo:
+            text = (src / todo.pop()).read_text(encoding="utf-8", errors="replace")
+            for inc in re.findall(r"^\s*INCLUDE\s+'([^'/\\]+\.inr)'", text, re.M | re.I):
+                if inc in known and inc not in want:
+                    want.add(inc)
+                    todo.append(inc)
         files = [p for p in files if p.parent != src or p.name in want]
     targets = [(p, dest / p.relative_to(src)) for p in files]
     clash = [t for _, t in targets if t.exists()]

@@ -256,6 +256,7 @@ def test_irt_examples_lists_and_copies(tmp_path, capsys):
     assert main(["examples", "telescope_spots", "--copy", str(tmp_path / "ex")]) == 0
     ex = tmp_path / "ex"
     assert (ex / "telescope_spots.inr").exists() and not (ex / "earth.inr").exists()
+    assert (ex / "cassegrain.inr").exists() and (ex / "cassegrain_design.inr").exists()   # what it INCLUDEs
     assert (ex / "earth" / "earth_maps.inr").exists() and (ex / "data" / "hri_vis_filter_550.csv").exists()
     assert not (ex / "__init__.py").exists()
     assert main(["examples", "telescope_spots", "--copy", str(ex)]) == 2    # no silent overwrite
