@@ -119,7 +119,8 @@ def _reset(it, b, st):
 @command("EPOCH", Form((Path("utc"),), (Clause("PLUS", (V("dt", TIME),), doc="a time added to the date"),)),
          "system", "a date and time (UTC): sets the Sun's position and the Earth's sidereal angle as variables")
 def _epoch(it, b, st):
-    """EPOCH '2008-03-18T18:19' [PLUS 3 H] (or a file name holding one EPOCH_TAG) sets EPOCH_UTC and EPOCH_TAG (strings), GAST (Greenwich apparent
+    """EPOCH '2008-03-18T18:19' [PLUS 3 H] (or a file name holding one EPOCH_TAG) sets EPOCH_UTC and EPOCH_TAG
+    (strings), EPOCH_TIME (a time since 2000-01-01 12:00 UTC), GAST (Greenwich apparent
     sidereal time), SUN_RA, SUN_DEC, SUBSOLAR_LAT, SUBSOLAR_LON (angles) and SUN_DIST (a length), from the
     solar ephemeris of irtlang.earth.ephemeris (Meeus; 0.01 deg, years 1800-2200).  The frame of SUN_RA and
     SUN_DEC is the equatorial frame of date (x to the equinox, z to the pole); an Earth-fixed frame turns from
@@ -154,6 +155,8 @@ def _epoch(it, b, st):
     d = math.pi / 180.0
     it.assign("EPOCH_UTC", t.strftime("%Y-%m-%dT%H:%M:%S"), b.span)
     it.assign("EPOCH_TAG", t.strftime("%Y%m%dT%H%M"), b.span)
+    # the time since 2000-01-01 12:00 UTC (no leap seconds): differences of dates as times, (t2 - t1) / 1 H
+    it.assign("EPOCH_TIME", Quantity((t - _dt.datetime(2000, 1, 1, 12)).total_seconds(), TIME), b.span)
     for name, v in (("GAST", sp.gast_deg), ("SUN_RA", sp.ra_deg), ("SUN_DEC", sp.dec_deg),
                     ("SUBSOLAR_LAT", sp.subsolar_lat_deg), ("SUBSOLAR_LON", sp.subsolar_lon_deg)):
         it.assign(name, Quantity(v * d, ANGLE), b.span)

@@ -34,6 +34,20 @@ def test_spacing_delta_is_a_default_of_the_earth_script():
         assert z * 1e3 == pytest.approx(d0 + sd * 1e-3, abs=1e-9), sd
 
 
+def test_an_observation_of_a_later_hour_gets_that_hour(tmp_path):
+    """An observed frame of 20:19 UTC (hour 2 of the default day) is traced at its epoch with the generated clouds
+    two hours on, as earth.inr traced it; its time comes from the file name."""
+    from irtlang.lang.interp import check_file
+
+    obs = tmp_path / "20080318T2019_550nm.npy"
+    obs.write_bytes(b"")        # irt check needs the input to exist, not to be read
+    it = check_file(SCRIPT, [f"observed='{obs}'", "sweep_last=0"])
+    traces = [s for s in it.steps if s.kind == "TRACE"]
+    assert len(traces) == 1           # the sweep's one frame (no demo observation)
+    assert Path(traces[0].scene.maps["CLOUD_LOW"].path).name == "CLOUD_LOW_T+0002.000H.npy"
+    assert it.lookup("EPOCH_UTC") == "2008-03-18T20:19:00"
+
+
 @pytest.mark.slow
 def test_identical_twin_recovers_the_spacing(tmp_path, capsys):
     out = tmp_path / "run"
