@@ -54,8 +54,8 @@ import numpy as np
 
 from ._common import AnalysisError
 
-__all__ = ["paraxial_refocus_mm", "sweep_files", "load_frame", "study_region", "mismatch", "bin_frame", "three_point_vertex",
-           "fit_spacing", "limb_regions", "despace_study"]
+__all__ = ["paraxial_refocus_mm", "sweep_files", "load_frame", "study_region", "mismatch", "bin_frame",
+           "three_point_vertex", "fit_spacing", "limb_regions", "despace_study"]
 
 _SWEEP_NAME = re.compile(r"^spacing_([+-]?\d+(?:\.\d*)?)um\.npy$")
 
@@ -301,8 +301,8 @@ def despace_study(observed, sweep, *, design=None, truth=None, free_scale=True, 
     """The whole study on files: the observed frame (path) and the sweep folder (``spacing_<um>um.npy`` frames).
 
     Signature: ``despace_study(observed, sweep, *, design=None, truth=None, free_scale=True, margin=12, smooth=1.0,
-    n_regions=8, region=16, maps=True, bin=4) -> dict`` with ``best_spacing_um``, ``uncertainty_um``, ``refocus_mm`` (with
-    ``design = (f1_mm, m, back_focus_mm)``; else None), ``method``, ``table`` (one row per spacing: chi2, scale,
+    n_regions=8, region=16, maps=True, bin=4) -> dict`` with ``best_spacing_um``, ``uncertainty_um``,
+    ``refocus_mm`` (with ``design = (f1_mm, m, back_focus_mm)``; else None), ``method``, ``table`` (one row per spacing: chi2, scale,
     median defocus sigma on edges, median ESF slope along the limb, edge pixels), ``esf_slope_spacing_um`` and, for
     the figures, ``_images`` (not JSON).
     """
