@@ -6,7 +6,7 @@ Run: ``python -m benchmarks.bench_earth [--quick]`` (also part of ``python -m be
   process, against the target of 10 minutes on 2 cores.
 * One frame (``--set hours=1``): wall time, then time against radiometric error at three Sun-ray counts (the
   relative standard error of the disk-integrated flux through the pupil, its 1/sqrt(N) slope, the figure of
-  merit 1 / (err^2 t)).
+  merit 1 / (err^2 t)), and the median error per line of the disk spectrum against Sun rays per line.
 
 Each is a fresh ``irt run`` process with the warm Numba cache (start-up and packing included).  ``--quick`` skips
 all of it (the whole day takes minutes).
@@ -69,6 +69,42 @@ def _pupil_flux(out: Path) -> dict:
     flux = sum(float(r["flux_W"]) for r in rows)
     se = math.sqrt(sum(float(r["stderr_W"]) ** 2 for r in rows))
     return {"flux_W": flux, "stderr_W": se}
+
+
+def _line_errors(out: Path) -> dict:
+    """Per-line relative standard errors of the disk spectrum through the pupil (spectra/*.csv): the median over
+    400-1000 nm and over every line with flux."""
+    import csv
+
+    import numpy as np
+
+    f = next((out / "spectra").glob("*.csv"))
+    rows = list(csv.DictReader(f.open()))
+    lam = np.array([float(r["wavelength_nm"]) for r in rows])
+    flux = np.array([float(r["flux_W"]) for r in rows])
+    se = np.array([float(r["stderr_W"]) for r in rows])
+    ok = flux > 0
+    rel = np.where(ok, se / np.where(ok, flux, 1.0), np.nan)
+    vis = ok & (lam >= 400) & (lam <= 1000)
+    return {"median_rel_err_400_1000": float(np.nanmedian(rel[vis])), "median_rel_err_all": float(np.nanmedian(rel[ok]))}
+
+
+LINE_RAYS = (800, 3200, 12800)     # Sun rays per line: the disk spectrum's error per line against time (#16)
+LINE_SETTINGS = ("hours=1", "save_rays=0", "window=16", "spectral_samples=1")   # the camera frame made negligible
+
+
+def line_error_against_time(rays=LINE_RAYS) -> list:
+    """One frame's forward trace at each Sun-ray count: wall time and the median per-line relative standard error
+    of the disk spectrum (issue #16, item 4: target 1 % per line, the whole day in 10 min)."""
+    out = []
+    earth_frame(settings=LINE_SETTINGS + (f"sun_rays={rays[0]}",))     # untimed: the kernels of these settings
+    for n in rays:
+        r = earth_frame(settings=LINE_SETTINGS + (f"sun_rays={n}",), keep=_line_errors)
+        if r["rc"] != 0:
+            out.append({"rays": n, "rc": r["rc"], "tail": r["tail"]})
+            continue
+        out.append({"rays": n, "s": r["s"], **{k: r[k] for k in ("median_rel_err_400_1000", "median_rel_err_all")}})
+    return out
 
 
 def error_against_time(rays=RAYS) -> list:
@@ -156,6 +192,7 @@ def run(quick: bool = False) -> dict:
     r["day"] = day
     r["settings"] = list(SETTINGS)
     r["series"] = error_against_time()
+    r["lines"] = line_error_against_time()
     r["images"] = image_error_against_time()
     ok = [x for x in r["series"] if "rel_err" in x]
     if len(ok) >= 2:
@@ -194,6 +231,18 @@ def report(r: dict) -> str:
         if "slope" in r:
             lines += ["", f"Fitted slope of log(error) against log(rays): {r['slope']:.3f} (1/sqrt(N): -0.5)."]
         lines.append("")
+    ln = [x for x in r.get("lines", []) if "median_rel_err_400_1000" in x]
+    if ln:
+        lines += ["The disk spectrum's error per line (issue #16, item 4: 1 % per line for the whole day in 10 min): one "
+                  "frame's forward trace (`--set " + " --set ".join(LINE_SETTINGS) + "`: the camera frame made "
+                  "negligible), median relative standard error per line:", "",
+                  "| Sun rays per line | wall s | 400-1000 nm | all lines | rays per line for 1 % (400-1000 nm) |",
+                  "|---|---|---|---|---|"]
+        for x in ln:
+            need = x["rays"] * (x["median_rel_err_400_1000"] / 0.01) ** 2
+            lines.append(f"| {x['rays']} | {x['s']:.1f} | {x['median_rel_err_400_1000']:.2%} | "
+                         f"{x['median_rel_err_all']:.2%} | {need:,.0f} |")
+        lines.append("")
     im = r.get("images")
     if im:
         lines += ["Band images of one frame: median per-pixel relative standard error on the lit disk (the worst of "
@@ -230,6 +279,11 @@ def readme_rows(r: dict) -> list:
         rows.append(("one Earth frame: disk flux error against Sun rays per line",
                      ", ".join(f"{x['rays']}: {x['rel_err']:.2%} in {x['s']:.0f} s" for x in ok)
                      + f"; slope {r['slope']:.3f}", "error ~ 1/sqrt(N) (slope -0.5)"))
+    ln = [x for x in r.get("lines", []) if "median_rel_err_400_1000" in x]
+    if ln:
+        rows.append(("one Earth frame's disk spectrum: median error per line (400-1000 nm) against Sun rays per line",
+                     ", ".join(f"{x['rays']}: {x['median_rel_err_400_1000']:.1%} in {x['s']:.0f} s" for x in ln),
+                     "<= 1 % per line, the day in 10 min"))
     im = r.get("images") or {}
     cams = [x for x in im.get("camera", []) if "err" in x]
     if cams:
