@@ -213,9 +213,14 @@ def write_series_csv(path, series, albedo):
         for j, lam in enumerate(series.wavelengths_nm):
             out.append(f"{tt},{float(lam)!r},{float(series.flux_W[k, j])!r},{float(series.stderr_W[k, j])!r},"
                        f"{float(a[k, j])!r}")
+    return _write_lines(path, out)
+
+
+def _write_lines(path, lines) -> Path:
+    """The lines as a text file, atomically. Returns the path."""
     path = Path(path)
     with atomic_path(path) as tmp:
-        tmp.write_text("\n".join(out) + "\n", encoding="utf-8")
+        tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
 
 
@@ -253,7 +258,4 @@ def write_mean_csv(path, wavelengths_nm, mean):
     for j, lam in enumerate(np.asarray(wavelengths_nm, dtype=np.float64)):
         out.append(f"{float(lam)!r},{float(mean['mean'][j])!r},{float(mean['stderr'][j])!r},"
                    f"{float(mean['spread'][j])!r}")
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        tmp.write_text("\n".join(out) + "\n", encoding="utf-8")
-    return path
+    return _write_lines(path, out)

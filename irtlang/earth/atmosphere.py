@@ -12,7 +12,6 @@
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 
@@ -115,7 +114,7 @@ def build_afgl_table(path=AFGL_TABLE) -> _Path:
 
     import joseki
 
-    from ..io.atomic import atomic_path
+    from ..io.atomic import write_text
 
     out = ["# AFGL 1986 atmospheres (Anderson et al. 1986, AFGL-TR-86-0110): the profiles of the PyPI package joseki "
            f"{md.version('joseki')} (LGPL-3.0; the data: U.S. Air Force report, public domain), written by "
@@ -128,9 +127,7 @@ def build_afgl_table(path=AFGL_TABLE) -> _Path:
             out.append(f"{name},{float(ds.z[k]):g},{float(ds.p[k]):.6g},{float(ds.t[k]):.6g},{float(ds.n[k]):.6g},"
                        f"{float(ds.x_H2O[k]):.6g},{float(ds.x_O3[k]):.6g}")
     p = _Path(path)
-    with atomic_path(p) as tmp:
-        tmp.write_text("\n".join(out) + "\n")
-        os.chmod(tmp, 0o644)
+    write_text(p, "\n".join(out) + "\n")      # atomic, with the umask's mode
     return p
 
 

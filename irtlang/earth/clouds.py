@@ -287,23 +287,14 @@ def cloud_model_line(name: str, wavelengths_nm, *, thickness_km: float, lwc_g_m3
     one value per wavelength line (liquid and ice mixed by their extinction).  spectral: the optics of
     :func:`cloud_optics_spectral` (Mie with the shipped indices, 250-2600 nm), else the Hu-Stamnes refit and Fu's
     bands (350-950 nm; clamp holds the end values outside)."""
-    taus, ws, gs = [], [], []
     if spectral:
         taus, ws, gs = cloud_optics_spectral(wavelengths_nm, thickness_km=thickness_km, lwc_g_m3=lwc_g_m3,
                                              r_eff_um=r_eff_um, iwc_g_m3=iwc_g_m3, d_ge_um=d_ge_um)
-    for wl in ([] if spectral else wavelengths_nm):
-        parts = []
-        if lwc_g_m3 > 0:
-            parts.append(liquid_optics(lwc_g_m3, r_eff_um, wl, clamp=clamp))
-        if iwc_g_m3 > 0:
-            parts.append(ice_optics(iwc_g_m3, d_ge_um, wl, clamp=clamp))
-        if not parts:
-            raise ValueError("a cloud needs liquid or ice water")
-        be = sum(p[0] for p in parts)
-        bs = sum(p[0] * p[1] for p in parts)
-        taus.append(be * thickness_km)
-        ws.append(bs / be)
-        gs.append(sum(p[0] * p[1] * p[2] for p in parts) / bs)
+    else:
+        taus, ws, gs = _mixed_layer(
+            wavelengths_nm, thickness_km,
+            (lambda wl: liquid_optics(lwc_g_m3, r_eff_um, wl, clamp=clamp)) if lwc_g_m3 > 0 else None,
+            (lambda wl: ice_optics(iwc_g_m3, d_ge_um, wl, clamp=clamp)) if iwc_g_m3 > 0 else None)
     fmt = lambda v: " ".join(f"{x:.6g}" for x in v)  # noqa: E731
     if kind == "EDDINGTON":    # the thick-layer model: multiple scattering's energy partition (delta-Eddington)
         return f"MODEL {name} EDDINGTON G {fmt(gs)} TAU {fmt(taus)} ALBEDO {fmt(ws)}"
@@ -424,15 +415,19 @@ def ice_optics_spectral(iwc_g_m3, d_ge_um: float, wavelength_nm: float) -> tuple
 def cloud_optics_spectral(wavelengths_nm, *, thickness_km: float, lwc_g_m3: float = 0.0, r_eff_um: float = 10.0,
                           iwc_g_m3: float = 0.0, d_ge_um: float = 60.0):
     """(tau, omega, g) arrays per line of a cloud layer, liquid and ice mixed by their extinction."""
+    return _mixed_layer(np.atleast_1d(np.asarray(wavelengths_nm, float)), thickness_km,
+                        (lambda wl: liquid_optics_mie(lwc_g_m3, r_eff_um, wl)) if lwc_g_m3 > 0 else None,
+                        (lambda wl: ice_optics_spectral(iwc_g_m3, d_ge_um, wl)) if iwc_g_m3 > 0 else None)
+
+
+def _mixed_layer(wavelengths_nm, thickness_km: float, liquid, ice):
+    """(tau, omega, g) arrays per line of a layer of liquid and ice (each a function wavelength -> (beta km^-1,
+    omega, g), or None), mixed by their extinction."""
+    if liquid is None and ice is None:
+        raise ValueError("a cloud needs liquid or ice water")
     taus, ws, gs = [], [], []
-    for wl in np.atleast_1d(np.asarray(wavelengths_nm, float)):
-        parts = []
-        if lwc_g_m3 > 0:
-            parts.append(liquid_optics_mie(lwc_g_m3, r_eff_um, wl))
-        if iwc_g_m3 > 0:
-            parts.append(ice_optics_spectral(iwc_g_m3, d_ge_um, wl))
-        if not parts:
-            raise ValueError("a cloud needs liquid or ice water")
+    for wl in wavelengths_nm:
+        parts = [f(wl) for f in (liquid, ice) if f is not None]
         be = sum(p[0] for p in parts)
         bs = sum(p[0] * p[1] for p in parts)
         taus.append(be * thickness_km)

@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from functools import lru_cache
 from pathlib import Path
 
@@ -83,7 +82,7 @@ def spectrl2_coefficients(cache_dir=None) -> dict:
 
 @lru_cache(maxsize=4)
 def _coefficients(path: str) -> dict:
-    from ..io.atomic import atomic_path
+    from ..io.atomic import write_text
 
     p = Path(path)
     d = None
@@ -93,9 +92,7 @@ def _coefficients(path: str) -> dict:
             d = None
     if d is None:
         d = _extract_from_pvlib()
-        with atomic_path(p) as tmp:
-            tmp.write_text(json.dumps(d, indent=1) + "\n")
-            os.chmod(tmp, 0o644)
+        write_text(p, json.dumps(d, indent=1) + "\n")     # atomic, with the umask's mode
     return {k: (np.asarray(v, float) if isinstance(v, list) else v) for k, v in d.items()}
 
 
@@ -222,7 +219,7 @@ def build_table(path=SIXS_TABLE, workers: int = 2, atmospheres=None, grid_nm=Non
     from concurrent.futures import ThreadPoolExecutor
     import importlib.metadata as md
 
-    from ..io.atomic import atomic_path
+    from ..io.atomic import write_text
     from . import sixs
 
     exe = sixs.executable()
@@ -240,9 +237,7 @@ def build_table(path=SIXS_TABLE, workers: int = 2, atmospheres=None, grid_nm=Non
             "atmosphere,wavelength_nm," + ",".join(f"{g}_m{int(m)}" for g in GROUPS for m in AIRMASSES)]
     out = head + [f"{a},{w:g}," + ",".join(f"{v:.5f}" for v in row) for (_, a, w), row in zip(jobs, rows)]
     path = Path(path)
-    with atomic_path(path) as tmp:
-        tmp.write_text("\n".join(out) + "\n")
-        os.chmod(tmp, 0o644)
+    write_text(path, "\n".join(out) + "\n")      # atomic, with the umask's mode
     return path
 
 
