@@ -100,3 +100,61 @@ def test_camera_standard_errors_are_honest(tmp_path):
     # independent samples overstate the variance (chi2/dof 0.39 with 2 x 2 points); they must never understate it
     assert chi2 < 1.0 + _chi2_band(dof), (chi2, dof)
     assert not np.array_equal(a, b)
+
+
+_FILTER_SCENE = """UNITS M
+WAVELENGTHS RANGE 400 700 16 NM
+SEED {seed}
+SPECTRUM blue TABLE 'blue.csv'
+SPECTRUM red TABLE 'red.csv'
+MODEL paint LAMBERTIAN 0.6
+SURFACE
+  SPHERE 0 0 1e5 100
+OBJECT ball
+  INTERFACE ABSORB
+  SCATTER MODEL paint
+SURFACE
+  CONIC Z 0 RADIUS 2 CONIC -1 ANNULUS 0.06 0.25
+OBJECT primary
+  INTERFACE REFLECT
+SURFACE
+  CONIC Z 0.8 RADIUS 0.5 CONIC -2.25 DISK 0.055
+OBJECT secondary
+  INTERFACE REFLECT
+SURFACE
+  PLANE Z (-0.2 - 0.00025) RECT 0.006 0.006
+OBJECT fpa
+  INTERFACE ABSORB
+  DETECTOR PIXELS 24 24 FILTERS blue red
+EMITTING SPHERE (1e9 * sin(60)) 0 (1e5 - 1e9 * cos(60)) 1e6 RAYS 1
+FLUX TOTAL 1e18 W
+LEVEL 50
+HALT 0.01
+TRACE CAMERA fpa AIM secondary RAYS 16 {how}
+EXPORT fpa 'red.npy' FILTER red
+"""
+
+
+def test_one_filter_image_is_that_filter_of_all(tmp_path):
+    """TRACE CAMERA ... FILTER red SPECTRAL 2 (every camera sample's line drawn from the red filter's band alone)
+    against the red image of a trace of both filters over every line, another seed: independent estimates of the
+    same expectation.  Per pixel (chi-square over pixels, one-sided as above: the camera's errors are conservative)
+    and in total (5 sigma of both runs' errors)."""
+    lam = np.linspace(400, 700, 16)
+    for name, t in (("blue", np.where(lam < 520, 0.9, 0.02)), ("red", np.clip((lam - 560) / 80, 0, 1) * 0.8)):
+        (tmp_path / f"{name}.csv").write_text("wavelength_nm,value\n300,0\n" + "".join(
+            f"{a:g},{b:g}\n" for a, b in zip(lam, t)) + "800,0\n")
+    imgs = {}
+    for key, seed, how in (("one", 3, "SPECTRAL 2 FILTER red"), ("all", 4, "")):
+        f = tmp_path / f"{key}.inr"
+        f.write_text(_FILTER_SCENE.format(seed=seed, how=how))
+        assert main(["run", str(f), "--out", str(tmp_path / key)]) == 0
+        imgs[key] = (np.load(tmp_path / key / "red.npy")[0], np.load(tmp_path / key / "red.stderr.npy")[0])
+    (a, ae), (b, be) = imgs["one"], imgs["all"]
+    m = (ae > 0) & (be > 0) & (b > 0.05 * b.max())
+    dof = int(m.sum())
+    assert dof > 100, dof
+    chi2 = float((((a - b) ** 2) / (ae ** 2 + be ** 2))[m].mean())
+    assert chi2 < 1.0 + _chi2_band(dof), (chi2, dof)
+    s = math.sqrt((ae ** 2).sum() + (be ** 2).sum())
+    assert abs(a.sum() - b.sum()) < 5 * s, (a.sum(), b.sum(), s)
