@@ -90,8 +90,12 @@ def camera_scene(scene: M.Scene, params: dict, span: Span) -> tuple[M.Scene, dic
     L = scene.n_lines
     qe = det.qe or (1.0,) * L
     filters = det.filters
-    if params.get("filter") and filters:     # TRACE CAMERA ... FILTER f: only that image, lines from its band
-        filters = tuple(f for f in filters if f[0].upper() == params["filter"].upper()) or filters
+    if params.get("filter"):                 # TRACE CAMERA ... FILTER f: only that image, lines from its band
+        only = tuple(f for f in (filters or ()) if f[0].upper() == params["filter"].upper())
+        if not only:
+            raise error(span, f"TRACE CAMERA ... FILTER {params['filter']}: the camera {cam.name} has no such filter",
+                        "name one of the camera DETECTOR's FILTERS")
+        filters = only
     if filters:
         response = tuple(tuple(float(tr[k]) * qe[k] for _, tr in filters) for k in range(L))
     else:
