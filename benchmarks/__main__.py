@@ -24,7 +24,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 MODULES = ["bench_trace", "bench_optiland", "bench_importance", "bench_mitsuba", "bench_cluster", "bench_startup",
-           "bench_memory", "bench_earth", "bench_defocus"]
+           "bench_memory", "bench_earth", "bench_defocus", "bench_polarization"]
 MARK_START = "<!-- perf-table:start -->"
 MARK_END = "<!-- perf-table:end -->"
 

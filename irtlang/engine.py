@@ -215,6 +215,10 @@ class Engine:
         from .tracer import run_trace
 
         p = step.params
+        if getattr(sc, "polarization", False):
+            raise RuntimeFailure(step.span, "TRACE CAMERA does not trace polarization yet (the camera-side path "
+                                 "would need each vertex's Mueller matrix transposed): use a forward TRACE "
+                                 "with POLARIZATION, or POLARIZATION OFF before TRACE CAMERA")
         csc, info = camera_scene(sc, cam, step.span)
         t0 = time.perf_counter()
         try:
@@ -585,6 +589,13 @@ class Engine:
                     img, img2 = img[k:k + 1], img2[k:k + 1]
                     what = f"filter {filters[0][k]}"
                     bands = ([filters[0][k]], [centre[k]])
+                    sel = slice(k, k + 1)
+            if step.params.get("stokes"):
+                self._export_stokes(step, obj, d, sel if filters is not None and step.params.get("filter") is not None
+                                    else slice(None), (x0, x1, y0, y1), filters is None, bands, interp)
+                self.out(f"EXPORT {obj.name} STOKES: {img.shape[2]}x{img.shape[1]} pixels x {img.shape[0]} {what}, "
+                         f"I, Q, U, V, DOLP, AOLP -> {step.params['file']}")
+                return
             self._write_image(step.params["file"], img, "image", extent=(x0, x1, y0, y1), sum2=img2,
                               per_line=filters is None, name=obj.name, bands=bands, interp=interp,
                               kind_label="image_diffraction" if step.params.get("diffraction") else "image")
@@ -757,8 +768,38 @@ class Engine:
         write_text(p, text)
         self.folder.record(p, kind)
 
+    def _export_stokes(self, step, obj, d, sel, extent, per_line, bands, interp):
+        """EXPORT ... STOKES: name_I, name_Q, name_U, name_V (each with its standard error) and the degree and
+        angle of linear polarization, name_DOLP (0..1) and name_AOLP (degrees from the detector's local x toward
+        e2 = d x e1, in (-90, 90]; docs/tracer.md, "Polarization")."""
+        st = getattr(self.result, "stokes", None)
+        if not st or obj.name not in st:
+            raise RuntimeFailure(step.span, f"EXPORT {obj.name} STOKES needs a polarized trace: put "
+                                 "POLARIZATION before TRACE")
+        s1, s2 = st[obj.name]
+        s1, s2 = s1[:, sel], s2[:, sel]
+        rel = step.params["file"]
+        stem, dot, ext = rel.rpartition(".")
+        labels = {"I": "Stokes I per pixel (W)", "Q": "Stokes Q per pixel (W)", "U": "Stokes U per pixel (W)",
+                  "V": "Stokes V per pixel (W)"}
+        for k, comp in enumerate("IQUV"):
+            self._write_image(f"{stem}_{comp}.{ext}", s1[k], "image", extent=extent, sum2=s2[k], per_line=per_line,
+                              name=f"{obj.name}_{comp}", bands=bands, interp=interp, kind_label=f"stokes_{comp}",
+                              quantity=None if k == 0 else (labels[comp], "W"))
+        if ext.lower() == "png":      # one picture: the degree and angle of the light summed over the planes
+            s1 = s1.sum(axis=1, keepdims=True)
+        i = s1[0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            dolp = np.where(i > 0, np.hypot(s1[1], s1[2]) / np.where(i > 0, i, 1.0), 0.0)
+        aolp = np.where(i > 0, np.degrees(0.5 * np.arctan2(s1[2], s1[1])), 0.0)
+        for comp, a, q in (("DOLP", dolp, ("degree of linear polarization", "")),
+                           ("AOLP", aolp, ("angle of linear polarization (deg from local x)", "deg"))):
+            self._write_image(f"{stem}_{comp}.{ext}", a, "image", extent=extent, per_line=per_line and a.shape[0] > 1,
+                              name=f"{obj.name}_{comp}", bands=bands if a.shape[0] > 1 else None, interp=interp,
+                              kind_label=comp.lower(), quantity=q)
+
     def _write_image(self, rel, img, kind, extent, sum2=None, per_line=True, *, name=None, bands=None,
-                     coord_unit=None, interp=None, kind_label=None):
+                     coord_unit=None, interp=None, kind_label=None, quantity=None):
         """An image file, and the image for results.nc.  extent in the script's length unit (coord_unit None), or
         in coord_unit ("1": direction cosines); bands: (filter names, centre wavelengths nm) of the k images."""
         from .io.images import write_image
@@ -782,7 +823,7 @@ class Engine:
         for q in write_image(p, img, sum2=sum2, extent=tuple(mm) if coord_unit is None else extent,
                              wavelengths_nm=lines, length_unit="mm" if coord_unit is None else "direction cosine",
                              bands=bands[0] if bands else None, focal_length_m=focal, provenance=prov,
-                             object_name=name or kind, n_traced=n_tr, psf=kind == "psf"):
+                             object_name=name or kind, n_traced=n_tr, psf=kind == "psf", quantity=quantity):
             self.folder.record(q, kind)
         if self.collector is not None:
             self.collector.add_image(name=name or kind, kind=kind_label or kind, img=img, se=se, extent_mm=tuple(mm),

@@ -31,6 +31,7 @@ class TraceResult:
     seed: int
     interrupted: bool = False
     passes: int = 1
+    stokes: dict | None = None  # POLARIZATION: detector name -> (sum (4, planes, ny, nx) of I, Q, U, V, sum2)
 
     @property
     def rows(self) -> list:
@@ -152,13 +153,16 @@ class TraceContext:
         self.rows = pk.n_rows
         self.total = pk.n_rays_total
         self.H = min(level, HISTORY_CAP) if history else 0
-        self.d_sizes = [self.L * int(ny) * int(nx) for nx, ny in zip(pk.d_nx, pk.d_ny)]
+        # a polarized trace keeps four stacks per detector, I, Q, U, V (the kernel's deposit index runs over
+        # (component, line, pixel)); images stay the I stack
+        self.ns = 4 if pk.features.polar else 1
+        self.d_sizes = [self.ns * self.L * int(ny) * int(nx) for nx, ny in zip(pk.d_nx, pk.d_ny)]
         self.d_off = (np.concatenate([[0], np.cumsum(self.d_sizes)[:-1]]).astype(np.int64) if self.d_sizes
                       else np.zeros(0, np.int64))
         # the images: one per line, or one per filter (DETECTOR ... FILTERS; reduce_batch applies the matrix)
         filt = list(pk.d_filters) or [None] * len(self.d_sizes)
         self.d_planes = [self.L if f is None else len(f[0]) for f in filt]
-        self.i_sizes = [b * int(ny) * int(nx) for b, nx, ny in zip(self.d_planes, pk.d_nx, pk.d_ny)]
+        self.i_sizes = [self.ns * b * int(ny) * int(nx) for b, nx, ny in zip(self.d_planes, pk.d_nx, pk.d_ny)]
         self.i_off = (np.concatenate([[0], np.cumsum(self.i_sizes)[:-1]]).astype(np.int64) if self.i_sizes
                       else np.zeros(0, np.int64))
         self.d_npix = np.array([int(ny) * int(nx) for nx, ny in zip(pk.d_nx, pk.d_ny)], np.int64)
@@ -197,7 +201,7 @@ class TraceContext:
             self.mod.trace_batch(first, n, self.total, self.seed, self.level, self.halt, pk.nee_cut, pk.r_importance,
                                  self.s_f, self.s_i, self.mesh_i, pk.bvh_bmin, pk.bvh_bmax, pk.bvh_child,
                                  pk.bvh_count, pk.bvh_tris, pk.bvh_ids, pk.bvh_fn, pk.o_itf, pk.o_coat, pk.o_back,
-                                 pk.o_front, pk.o_det, self.o_bc, self.o_br, pk.o_sc_first, pk.o_sc_cnt, pk.sp_kind,
+                                 pk.o_front, pk.o_det, pk.o_pol, self.o_bc, self.o_br, pk.o_sc_first, pk.o_sc_cnt, pk.sp_kind,
                                  pk.sp_model, pk.sp_map, pk.sp_cls_off, pk.sp_cls_n, pk.sp_rays, pk.sp_tgt,
                                  pk.cls_models, pk.map_data, pk.map_off, pk.map_nlat, pk.map_nlon, self.mod_kind,
                                  pk.mod_P, pk.mod_slab, pk.med_n, pk.med_alpha, pk.med_row, pk.med_sig, pk.med_alb,
@@ -249,14 +253,19 @@ class Accumulator:
     def result(self, passes: int = 1, interrupted: bool = False) -> TraceResult:
         ctx = self.ctx
         images = {}
+        stokes = {} if ctx.ns == 4 else None
         for d, name in enumerate(ctx.pk.detector_names):
-            shape = (ctx.d_planes[d], int(ctx.pk.d_ny[d]), int(ctx.pk.d_nx[d]))
+            shape = (ctx.ns, ctx.d_planes[d], int(ctx.pk.d_ny[d]), int(ctx.pk.d_nx[d]))
             a, b = int(ctx.i_off[d]), int(ctx.i_off[d]) + ctx.i_sizes[d]
-            images[name] = (self.img[a:b].reshape(shape), self.img_sq[a:b].reshape(shape))
+            s1, s2 = self.img[a:b].reshape(shape), self.img_sq[a:b].reshape(shape)
+            images[name] = (s1[0], s2[0])
+            if stokes is not None:
+                stokes[name] = (s1, s2)
         recs = None
         if ctx.records and self.rec_parts:
             recs = {k: np.concatenate([r[k] for r in self.rec_parts]) for k in self.rec_parts[0]}
-        return TraceResult(ctx.pk, self.ledger, self.ledger_sq, images, recs, self.done, ctx.seed, interrupted, passes)
+        return TraceResult(ctx.pk, self.ledger, self.ledger_sq, images, recs, self.done, ctx.seed, interrupted, passes,
+                           stokes)
 
 
 def batches(total: int, batch: int, passes: int = 0):

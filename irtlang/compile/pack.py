@@ -8,7 +8,8 @@ summed with ``math.fsum`` so the pair is the exact sum to double-double precisio
 Kind codes (kept in one place, used by the kernels):
   surfaces  SK_PLANE SK_CONIC SK_SPHERE SK_ELLIPSOID SK_TUBE SK_MESH
   apertures AP_NONE AP_RECT AP_DISK AP_ANNULUS AP_ELLIPSE
-  interface IF_ABSORB IF_REFLECT IF_SPLIT (R/T table) IF_FRESNEL (R and T from the two media)
+  interface IF_ABSORB IF_REFLECT IF_SPLIT (R/T table) IF_FRESNEL (R and T from the two media) IF_POLARIZER
+            IF_RETARDER (ideal elements of a polarized trace; o_pol: axis angle, retardance in radians)
   sources   SRC_GRID_RECT SRC_GRID_DISK SRC_SPHERE SRC_DISK SRC_POINT
   direction DIR_COLLIMATED DIR_DIVERGE DIR_CONVERGE DIR_FIELD DIR_LAMBERT
 """
@@ -28,7 +29,7 @@ SURFACE_CODES = {"PLANE": SK_PLANE, "CONIC": SK_CONIC, "SPHERE": SK_SPHERE, "ELL
                  "TUBE": SK_TUBE, "MESH": SK_MESH}
 AP_NONE, AP_RECT, AP_DISK, AP_ANNULUS, AP_ELLIPSE = range(5)
 APERTURE_CODES = {None: AP_NONE, "RECT": AP_RECT, "DISK": AP_DISK, "ANNULUS": AP_ANNULUS, "ELLIPSE": AP_ELLIPSE}
-IF_ABSORB, IF_REFLECT, IF_SPLIT, IF_FRESNEL = range(4)
+IF_ABSORB, IF_REFLECT, IF_SPLIT, IF_FRESNEL, IF_POLARIZER, IF_RETARDER = range(6)
 SRC_GRID_RECT, SRC_GRID_DISK, SRC_SPHERE, SRC_DISK, SRC_POINT = range(5)
 DIR_COLLIMATED, DIR_DIVERGE, DIR_CONVERGE, DIR_FIELD, DIR_LAMBERT = range(5)
 N_TERMINAL_ROWS = 4   # EMITTED, ESCAPED, HALTED, LOST (after the objects and the absorbing media)
@@ -57,6 +58,7 @@ class Features:
     volume: bool = False       # scattering media (free-path sampling)
     importance: bool = False   # SCATTER ... TOWARD: next-event rays and the IMPORTANCE ledger row
     shells: bool = False       # nested concentric spheres/ellipsoids (atmosphere shells): test neighbours only
+    polar: bool = False        # POLARIZATION (or a POLARIZER / RETARDER interface): Stokes vectors
     bsdf_kinds: tuple = ()     # the scatter-model kinds the scene uses (their dispatch order)
 
     def key(self) -> str:
@@ -104,6 +106,7 @@ class Packed:
     o_back: np.ndarray
     o_front: np.ndarray
     o_det: np.ndarray
+    o_pol: np.ndarray               # (O, 2) a POLARIZER's or RETARDER's axis angle and retardance (rad)
     # media and coatings (per line)
     med_n: np.ndarray               # (M, L)
     med_alpha: np.ndarray           # (M, L) 1/m
@@ -394,7 +397,7 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
     L = scene.n_lines
     lines = np.asarray(scene.wavelengths_nm, float)
     widths = (np.diff(band_edges(lines), axis=1)[:, 0] if L > 1 else np.ones(1))
-    feats = Features(records=records, history=history)
+    feats = Features(records=records, history=history, polar=bool(getattr(scene, "polarization", False)))
 
     obj_keys = list(scene.objects)
     obj_index = {k: i for i, k in enumerate(obj_keys)}
@@ -419,6 +422,7 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
     o_coat = np.full(nO, -1, np.int32)
     o_back = np.zeros(nO, np.int32)
     o_front = np.zeros(nO, np.int32)
+    o_pol = np.zeros((max(nO, 1), 2))
     o_det = np.full(nO, -1, np.int32)
     used_media = set()
     det_rows = []
@@ -508,6 +512,12 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
             o_itf[i] = IF_ABSORB
         elif itf.kind == "reflect":
             o_itf[i] = IF_REFLECT
+        elif itf.kind in ("polarizer", "retarder"):
+            o_itf[i] = IF_POLARIZER if itf.kind == "polarizer" else IF_RETARDER
+            o_pol[i] = (itf.angle, itf.retardance)
+            o_back[i], o_front[i] = med_index[itf.back], med_index[itf.front]
+            used_media.update((itf.back, itf.front))
+            feats.polar = True          # an ideal polarizer only means something to a polarized trace
         else:
             o_back[i], o_front[i] = med_index[itf.back], med_index[itf.front]
             used_media.update((itf.back, itf.front))
@@ -658,7 +668,7 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
                   cat(0, np.float64, (0, 3)), cat(1, np.float64, (0, 3)), cat(2, np.int64, (0,)),
                   cat(3, np.int64, (0,)), cat(4, np.float64, (0, 9)), cat(5, np.int64, (0,)),
                   cat(6, np.float64, (0, 3)),
-                  o_itf, o_coat, o_back, o_front, o_det, med_n, med_alpha, med_row, med_sig, med_alb, med_g, med_phase,
+                  o_itf, o_coat, o_back, o_front, o_det, o_pol, med_n, med_alpha, med_row, med_sig, med_alb, med_g, med_phase,
                   med_depol, med_tgt, med_nee, coat_R, coat_T,
                   o_sc_first, o_sc_cnt, sp_kind, sp_model, sp_map, sp_cls_off, sp_cls_n, sp_rays, sp_tgt, cls_models,
                   map_data, map_off, map_nlat, map_nlon,

@@ -8,6 +8,7 @@ warm.  A scene with only mirrors therefore compiles no refraction, mesh, media o
 """
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import importlib.util
 import os
@@ -20,11 +21,14 @@ from .pack import Features
 _FLAGS = {"conic": "F_CONIC", "quadric": "F_QUADRIC", "mesh": "F_MESH", "refract": "F_REFRACT",
           "absorb_media": "F_ABSORB_MEDIA", "precise": "F_PRECISE", "records": "F_RECORDS", "history": "F_HISTORY",
           "scatter": "F_SCATTER", "maps": "F_MAPS", "volume": "F_VOLUME", "importance": "F_IMPORTANCE",
-          "shells": "F_SHELLS"}
-_FUNCS = ("sample", "eval", "albedo", "direct")
+          "shells": "F_SHELLS", "polar": "F_POLAR"}
+_FUNCS = ("sample", "eval", "albedo", "direct", "mueller")
 _SIGS = {"sample": "P, k, wix, wiy, wiz, nx, ny, nz, u0, u1, u2",
-         "eval": "P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz", "albedo": "P, k, cos_i", "direct": "P, k, cos_i"}
-_NAMES = {"sample": "sample", "eval": "eval", "albedo": "albedo", "direct": "direct_transmission"}
+         "eval": "P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz", "albedo": "P, k, cos_i", "direct": "P, k, cos_i",
+         "mueller": "P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz, q, u, v, ex, ey, ez"}
+_NAMES = {"sample": "sample", "eval": "eval", "albedo": "albedo", "direct": "direct_transmission",
+          "mueller": "mueller"}
+_DEFAULTS = {"mueller": ("irtlang.plugins.bsdfs._common", "depolarize")}   # optional in a plugin
 
 
 def bsdf_dispatch(kinds) -> str:
@@ -36,7 +40,10 @@ def bsdf_dispatch(kinds) -> str:
     for j, kd in enumerate(kinds):
         mod = REGISTRY[kd].__name__
         for f in _FUNCS:
-            lines.append(f"from {mod} import {_NAMES[f]} as _{f}_{j}")
+            if f in _DEFAULTS and not hasattr(REGISTRY[kd], _NAMES[f]):
+                lines.append(f"from {_DEFAULTS[f][0]} import {_DEFAULTS[f][1]} as _{f}_{j}")
+            else:
+                lines.append(f"from {mod} import {_NAMES[f]} as _{f}_{j}")
     for f in _FUNCS:
         lines += ["", "", "@numba.njit(cache=True)", f"def _bsdf_{f}(kind, {_SIGS[f]}):"]
         for j in range(len(kinds)):
@@ -69,7 +76,7 @@ def all_features() -> Features:
     """Every feature on and every scatter model in the dispatch: one kernel for any scene."""
     from ..plugins.bsdfs import REGISTRY
 
-    f = Features(**{k: True for k in _FLAGS})
+    f = Features(**{k: True for k in _FLAGS if k != "polar"})   # polarization changes results: the scene's own
     f.bsdf_kinds = tuple(REGISTRY)
     return f
 
@@ -81,7 +88,7 @@ def kernel_module(features: Features):
     (one compilation for a whole test suite; the results agree with the specialized kernels to rounding,
     which a test checks)."""
     if os.environ.get("IRT_KERNEL_FEATURES", "").lower() == "all":
-        features = all_features()
+        features = dataclasses.replace(all_features(), polar=features.polar)
     key = features.key()
     if key in _loaded:
         return _loaded[key]

@@ -16,13 +16,15 @@ from .atomic import atomic_path, write_bytes, write_text
 
 def write_image(path: Path, img: np.ndarray, *, sum2=None, extent=None, wavelengths_nm=None,
                 length_unit: str = "mm", bands=None, focal_length_m: float | None = None, provenance=None,
-                object_name: str | None = None, n_traced: int | None = None, psf: bool = False) -> list[Path]:
+                object_name: str | None = None, n_traced: int | None = None, psf: bool = False,
+                quantity: tuple | None = None) -> list[Path]:
     """Write an image file; returns the paths written.  extent (x0, x1, y0, y1) in length_unit; bands: the
     filter names of the k images (DETECTOR FILTERS); focal_length_m: adds the field-angle WCS to a FITS file;
     provenance: FITS header cards (irtlang_version, script_sha256, seed, data_tier, rays_traced, epoch_utc).
     `sum2`: the per-source-ray squared sums; the standard error is the tracer's (the same as every printed
     total's) when `n_traced` is given, else sqrt(sum2).  `psf`: a normalized PSF (energy fraction per pixel),
-    labelled as such (PNG colour bar, CSV column, FITS BUNIT)."""
+    labelled as such (PNG colour bar, CSV column, FITS BUNIT).  `quantity`: (label, FITS BUNIT) of an image that is
+    not a flux (a polarization map, EXPORT ... STOKES): its PNG shows the first plane, not the sum of them."""
     path = Path(path)
     ext = path.suffix.lower()
     img = np.asarray(img, np.float64)
@@ -46,13 +48,17 @@ def write_image(path: Path, img: np.ndarray, *, sum2=None, extent=None, waveleng
     elif ext in (".fits", ".fit"):
         write_bytes(path, fits_bytes(img, stderr, extent, wavelengths_nm, length_unit, bands=bands,
                                      focal_length_m=focal_length_m, provenance=provenance, object_name=object_name,
-                                     bunit="" if psf else "W"))
+                                     bunit=quantity[1] if quantity else "" if psf else "W"))
     elif ext == ".png":
-        _png(path, img, extent, length_unit, label="normalized PSF (energy fraction per pixel)" if psf
-             else "flux per pixel (W)")
+        if quantity:
+            _png(path, img[:1], extent, length_unit, label=quantity[0])
+        else:
+            _png(path, img, extent, length_unit, label="normalized PSF (energy fraction per pixel)" if psf
+                 else "flux per pixel (W)")
     elif ext == ".csv":
         buf = io.StringIO()
-        buf.write("line,wavelength_nm,row,col," + ("psf_fraction" if psf else "flux_W")
+        buf.write("line,wavelength_nm,row,col," + (quantity[0].split(" (")[0].replace(" ", "_") if quantity
+                                                   else "psf_fraction" if psf else "flux_W")
                   + (",stderr_W" if stderr is not None else "") + "\n")
         L, ny, nx = img.shape
         for k in range(L):

@@ -35,6 +35,8 @@ from .bvh import hit_mesh
 from .geometry import (conic_normal, conic_normal_plain, hit_conic_plain, drop_leaving_root, two_prod, ellipsoid_normal, hit_conic, hit_ellipsoid, hit_plane, hit_sphere, hit_tube,
                        in_annulus, in_disk, in_ellipse, in_rect, sphere_normal, tube_normal)
 from .optics import fresnel_unpolarized, refract
+from .polar import (azimuth_angle, diattenuate, frame, fresnel_mueller, perpendicular, rayleigh_mueller, rotate,
+                    scatter_stokes)
 from .rng import uniform2
 from .sampling import cosine_hemisphere, lambert_cone, onb, uniform_cone, uniform_disk, uniform_sphere
 
@@ -52,6 +54,7 @@ F_MAPS = True
 F_VOLUME = True
 F_IMPORTANCE = True
 F_SHELLS = True
+F_POLAR = True
 # ---- end of features ----
 
 CHUNK = 1024
@@ -59,11 +62,14 @@ SMAX = 256          # pending paths per source ray (splitting, rays toward a tar
 MAX_PATHS = 4096    # paths per source ray: past this, RAYS n no longer splits (still unbiased); without a
                     # bound, k scatterings make n^k paths and a closed scattering scene never ends
 NEE_STRAIGHT_DN = 1e-3   # rays sent toward a target cross index steps smaller than this without bending
-SW = 20             # stack entry: ph(3) pl(3) d(3) w w0 ev excl nee path flags jlast opl sx sy, then the history
+SW = 20             # stack entry: ph(3) pl(3) d(3) w w0 ev excl nee path flags jlast opl sx sy, [q u v e1(3)], history
+SWP = SW + 6 if F_POLAR else SW     # where the history starts: after the Stokes state of a polarized trace
 # ledger columns
 C_INC, C_REF, C_TRA, C_SCA, C_ABS = 0, 1, 2, 3, 4
 # record flags
 FL_SCATTERED, FL_TRANSMITTED, FL_REFLECTED, FL_HALTED, FL_ESCAPED, FL_LOST = 1, 2, 4, 8, 16, 32
+# interface kinds (irtlang.compile.pack IF_*)
+IF_ABSORB, IF_REFLECT, IF_SPLIT, IF_FRESNEL, IF_POLARIZER, IF_RETARDER = 0, 1, 2, 3, 4, 5
 # event kinds in the history
 EV_R, EV_T, EV_S, EV_A = 1, 2, 3, 4
 EPS_SELF = 1e-9
@@ -637,6 +643,7 @@ from irtlang.plugins.bsdfs.lambertian import albedo as _albedo_0
 from irtlang.plugins.bsdfs.lambertian import direct_transmission as _direct_0
 from irtlang.plugins.bsdfs.lambertian import eval as _eval_0
 from irtlang.plugins.bsdfs.lambertian import sample as _sample_0
+from irtlang.plugins.bsdfs._common import depolarize as _mueller_0
 
 
 @numba.njit(cache=True)
@@ -657,12 +664,17 @@ def _bsdf_albedo(kind, P, k, cos_i):
 @numba.njit(cache=True)
 def _bsdf_direct(kind, P, k, cos_i):
     return _direct_0(P, k, cos_i)
+
+
+@numba.njit(cache=True)
+def _bsdf_mueller(kind, P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz, q, u, v, ex, ey, ez):
+    return _mueller_0(P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz, q, u, v, ex, ey, ez)
 # ---- end of bsdf dispatch ----
 
 # ---------------------------------------------------------------------------------------------- the trace
 @numba.njit(cache=True, inline="always")
 def _push(stack, sp, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w0, ev, excl, nee, path, flags, jlast, opl, sx, sy,
-          hist, H):
+          hist, H, stq, stu, stv, ex, ey, ez):
     stack[sp, 0] = phx
     stack[sp, 1] = phy
     stack[sp, 2] = phz
@@ -683,14 +695,21 @@ def _push(stack, sp, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w0, ev, excl, 
     stack[sp, 17] = opl
     stack[sp, 18] = sx
     stack[sp, 19] = sy
+    if F_POLAR:
+        stack[sp, 20] = stq
+        stack[sp, 21] = stu
+        stack[sp, 22] = stv
+        stack[sp, 23] = ex
+        stack[sp, 24] = ey
+        stack[sp, 25] = ez
     for h in range(H):
-        stack[sp, SW + h] = hist[h]
+        stack[sp, SWP + h] = hist[h]
 
 
 @numba.njit(cache=True, parallel=True)
 def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                 s_f, s_i, mesh_i, bmin, bmax, child, count, tris, ids, bvh_fn,
-                o_itf, o_coat, o_back, o_front, o_det, o_bc, o_br, o_sc_first, o_sc_cnt, sp_kind, sp_model, sp_map,
+                o_itf, o_coat, o_back, o_front, o_det, o_pol, o_bc, o_br, o_sc_first, o_sc_cnt, sp_kind, sp_model, sp_map,
                 sp_cls_off, sp_cls_n, sp_rays, sp_tgt, cls_models, map_data, map_off, map_nlat, map_nlon,
                 mod_kind, mod_P, mod_slab,
                 med_n, med_alpha, med_row, med_sig, med_alb, med_g, med_phase, med_depol, med_tgt, med_nee,
@@ -717,7 +736,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
     for c in numba.prange(nchunks):
         ndep = 0
         nrec = 0
-        stack = np.empty((SMAX, SW + H))
+        stack = np.empty((SMAX, SWP + H))
         hist = np.full(max(H, 1), -1.0)
         Pm = mod_P[0]
         # per source ray: incident flux per object, so that inc_sq and the images' squares sum the squares of
@@ -745,6 +764,15 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
             flags = 0
             jlast = -1
             opl = 0.0
+            # Stokes: unpolarized light, any reference vector perpendicular to d
+            stq = 0.0
+            stu = 0.0
+            stv = 0.0
+            ex = 0.0
+            ey = 0.0
+            ez = 0.0
+            if F_POLAR:
+                ex, ey, ez = frame(dx, dy, dz, 0.0, 0.0, 0.0)
             sp = 0
             npath = 1
             from_stack = False
@@ -773,8 +801,15 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                     opl = stack[sp, 17]
                     sx0 = stack[sp, 18]
                     sy0 = stack[sp, 19]
+                    if F_POLAR:
+                        stq = stack[sp, 20]
+                        stu = stack[sp, 21]
+                        stv = stack[sp, 22]
+                        ex = stack[sp, 23]
+                        ey = stack[sp, 24]
+                        ez = stack[sp, 25]
                     for h in range(H):
-                        hist[h] = stack[sp, SW + h]
+                        hist[h] = stack[sp, SWP + h]
                 last = -1
                 hx = phx + plx
                 hy = phy + ply
@@ -835,6 +870,8 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                 led[c, rm, C_ABS, line] += w * (1.0 - alb)
                                 w *= alb
                                 ev += 1
+                                if F_POLAR:
+                                    ex, ey, ez = frame(dx, dy, dz, ex, ey, ez)
                                 pk = med_phase[m1]
                                 gg = med_g[m1, line]
                                 gam = med_depol[m1] / (2.0 - med_depol[m1])
@@ -846,19 +883,65 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                         ox_, oy_, oz_, om = _toward(phx, phy, phz, plx, ply, plz, o_bc, o_br, tgt,
                                                                     v0, v1)
                                         mu_ = dx * ox_ + dy * oy_ + dz * oz_
-                                        cw = w * _phase(pk, gg, gam, mu_) * om / nr
+                                        pf = 1.0
+                                        nq = 0.0
+                                        nu = 0.0
+                                        nv = 0.0
+                                        nex = 0.0
+                                        ney = 0.0
+                                        nez = 0.0
+                                        if F_POLAR:
+                                            if pk == 1:
+                                                # Rayleigh: the Mueller matrix in the plane through d and the target
+                                                nex, ney, nez = perpendicular(dx, dy, dz, ox_, oy_, oz_, ex, ey, ez)
+                                                qs, us = rotate(dx, dy, dz, ex, ey, ez, stq, stu, nex, ney, nez)
+                                                p11, p12, p22, p33, p44 = rayleigh_mueller(mu_, med_depol[m1])
+                                                i1, nq, nu, nv = scatter_stokes(qs, us, stv, p11, p12, p22, p33, p44)
+                                                pf = i1 / p11
+                                            else:
+                                                nex, ney, nez = frame(ox_, oy_, oz_, ex, ey, ez)   # HG depolarizes
+                                        cw = w * _phase(pk, gg, gam, mu_) * pf * om / nr
                                         if nee_cut > 0.0 and cw > 0.0:
                                             cw = _nee_roulette(cw, w * om / (math.pi * nr), nee_cut,
                                                                uniform2(seed, i, ev, path * 64 + 9 + 2 * q)[0])
                                         if cw > 0.0 and sp < SMAX:
                                             _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev,
-                                                  -1.0, 1.0, npath, FL_SCATTERED, -1.0, opl, sx0, sy0, hist, H)
+                                                  -1.0, 1.0, npath, FL_SCATTERED, -1.0, opl, sx0, sy0, hist, H,
+                                                  nq, nu, nv, nex, ney, nez)
                                             sp += 1
                                             npath += 1
                                             led[c, r_imp, C_ABS, line] -= cw
                                 v0, v1 = uniform2(seed, i, ev, path * 64 + 61)
                                 mu_ = _phase_sample(pk, gg, gam, v0)
-                                dx, dy, dz = _turn(dx, dy, dz, mu_, v1)
+                                if F_POLAR and pk == 1:
+                                    # Rayleigh, polarized: mu from the phase function (the marginal of the
+                                    # Mueller matrix's I row), then the azimuth from its density given mu,
+                                    # 1 - A cos 2(phi - phi0): the joint density exactly, the weight unchanged
+                                    p11, p12, p22, p33, p44 = rayleigh_mueller(mu_, med_depol[m1])
+                                    A = p12 / p11 * math.sqrt(stq * stq + stu * stu)
+                                    phi = 0.5 * math.atan2(stu, stq) + azimuth_angle(A, v1)
+                                    cph = math.cos(phi)
+                                    sph = math.sin(phi)
+                                    e2x = dy * ez - dz * ey
+                                    e2y = dz * ex - dx * ez
+                                    e2z = dx * ey - dy * ex
+                                    st = math.sqrt(max(0.0, 1.0 - mu_ * mu_))
+                                    nsx = cph * e2x - sph * ex      # the scattering plane's normal
+                                    nsy = cph * e2y - sph * ey
+                                    nsz = cph * e2z - sph * ez
+                                    qs, us = rotate(dx, dy, dz, ex, ey, ez, stq, stu, nsx, nsy, nsz)
+                                    _i1, stq, stu, stv = scatter_stokes(qs, us, stv, p11, p12, p22, p33, p44)
+                                    dx = mu_ * dx + st * (cph * ex + sph * e2x)
+                                    dy = mu_ * dy + st * (cph * ey + sph * e2y)
+                                    dz = mu_ * dz + st * (cph * ez + sph * e2z)
+                                    ex, ey, ez = frame(dx, dy, dz, nsx, nsy, nsz)
+                                else:
+                                    dx, dy, dz = _turn(dx, dy, dz, mu_, v1)
+                                    if F_POLAR:
+                                        stq = 0.0      # HG volumes depolarize (docs/tracer.md)
+                                        stu = 0.0
+                                        stv = 0.0
+                                        ex, ey, ez = frame(dx, dy, dz, ex, ey, ez)
                                 excl = tgt
                                 jlast = -1
                                 flags |= FL_SCATTERED
@@ -928,7 +1011,21 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                 dep_idx[c, ndep] = d_off[dd] + (line * ny + iy) * nx + ix
                                 dep_w[c, ndep] = w * d_qe[dd, line]
                             ndep += 1
+                            if F_POLAR:
+                                # Q, U, V in the detector's frame (e1: its local x, projected across the ray),
+                                # deposited as images 1, 2, 3 of the detector's Stokes stack
+                                fx, fy, fz = frame(dx, dy, dz, s_f[j, SF_R], s_f[j, SF_R + 3], s_f[j, SF_R + 6])
+                                ex, ey, ez = frame(dx, dy, dz, ex, ey, ez)
+                                dq, du = rotate(dx, dy, dz, ex, ey, ez, stq, stu, fx, fy, fz)
+                                stride = led.shape[3] * ny * nx
+                                wd = w * d_qe[dd, line]
+                                for comp in range(1, 4):
+                                    if ndep < cap:
+                                        dep_idx[c, ndep] = d_off[dd] + comp * stride + (line * ny + iy) * nx + ix
+                                        dep_w[c, ndep] = wd * (dq if comp == 1 else (du if comp == 2 else stv))
+                                    ndep += 1
                     # the interface: specular R and T, absorbed A
+                    Ar = Br = xr = yr = At = Bt = xt = 0.0
                     if it == 0:
                         R = 0.0
                         T = 0.0
@@ -946,9 +1043,38 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                             if n1 > n2 and n1 * n1 * (1.0 - ci * ci) >= n2 * n2:
                                 R += T
                                 T = 0.0
-                    else:
-                        R = fresnel_unpolarized(abs(ci), med_n[m1, line], med_n[m2, line])
+                    elif not F_POLAR or it == IF_FRESNEL:
+                        if F_POLAR:
+                            Ar, Br, xr, yr, At, Bt, xt = fresnel_mueller(abs(ci), med_n[m1, line], med_n[m2, line])
+                            R = 0.0
+                        else:
+                            R = fresnel_unpolarized(abs(ci), med_n[m1, line], med_n[m2, line])
                         T = 1.0 - R
+                    else:
+                        R = 0.0
+                        T = 1.0
+                    if F_POLAR:
+                        # into the frame of the interface: e1 = s (normal to the plane of incidence), or a
+                        # polarizer's or retarder's axis (the object's local x turned by its angle about z)
+                        ex, ey, ez = frame(dx, dy, dz, ex, ey, ez)
+                        if it >= IF_POLARIZER:
+                            ca = math.cos(o_pol[o, 0])
+                            sa = math.sin(o_pol[o, 0])
+                            r = SF_R
+                            snx, sny, snz = frame(dx, dy, dz, ca * s_f[j, r] + sa * s_f[j, r + 1],
+                                                  ca * s_f[j, r + 3] + sa * s_f[j, r + 4],
+                                                  ca * s_f[j, r + 6] + sa * s_f[j, r + 7])
+                        else:
+                            snx, sny, snz = perpendicular(dx, dy, dz, nwx, nwy, nwz, ex, ey, ez)
+                        stq, stu = rotate(dx, dy, dz, ex, ey, ez, stq, stu, snx, sny, snz)
+                        ex = snx
+                        ey = sny
+                        ez = snz
+                        if it == IF_FRESNEL:
+                            R = Ar + Br * stq
+                            T = 1.0 - R
+                        elif it == IF_POLARIZER:
+                            T = 0.5 * (1.0 + stq)
                     ev += 1
                     evkind = EV_A
                     # which scatter model applies here: an object's SCATTER specs, tried in order
@@ -1000,7 +1126,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                         for qq in range(o_sc_cnt[o]):
                             spn = o_sc_first[o] + qq
                             kd = sp_kind[spn]
-                            pq = preach
+                            pmix = preach
                             mq = -1
                             if kd > 0:
                                 lat, lon = geodetic(lx, ly, lz)
@@ -1013,14 +1139,14 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                     preach = 0.0
                                 else:
                                     vq = min(max(vq, 0.0), 1.0)
-                                    pq = preach * vq
+                                    pmix = preach * vq
                                     mq = sp_model[spn]
                                     preach *= 1.0 - vq
                             else:
                                 mq = sp_model[spn]
                                 preach = 0.0
                             tq = sp_tgt[spn]
-                            if mq >= 0 and tq >= 0 and pq > 0.0:
+                            if mq >= 0 and tq >= 0 and pmix > 0.0:
                                 mkq = mod_kind[mq]
                                 Pq = mod_P[mq]
                                 nr = sp_rays[spn]
@@ -1030,15 +1156,22 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                     ox_, oy_, oz_, om = _toward(phx, phy, phz, plx, ply, plz, o_bc, o_br, tq, v0, v1)
                                     co = ox_ * nvx + oy_ * nvy + oz_ * nvz
                                     f = _bsdf_eval(mkq, Pq, line, -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz)
-                                    cw = w * pq * f * abs(co) * om / nr
+                                    nq = nu = nv = nex = ney = nez = 0.0
+                                    if F_POLAR:
+                                        pf, nq, nu, nv, nex, ney, nez = _bsdf_mueller(
+                                            mkq, Pq, line, -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz, stq, stu, stv,
+                                            ex, ey, ez)
+                                        f *= pf
+                                    cw = w * pmix * f * abs(co) * om / nr
                                     if nee_cut > 0.0 and cw > 0.0:
-                                        cw = _nee_roulette(cw, w * pq * om / (math.pi * nr), nee_cut,
+                                        cw = _nee_roulette(cw, w * pmix * om / (math.pi * nr), nee_cut,
                                                            uniform2(seed, i, ev, path * 64 + 9 + 2 * qd)[0])
                                     if cw > 0.0 and sp < SMAX:
                                         if F_HISTORY and ev - 1 < H:
                                             hist[ev - 1] = o * 8 + EV_S
                                         _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev,
-                                              -1.0, 1.0, npath, FL_SCATTERED, j, opl, sx0, sy0, hist, H)
+                                              -1.0, 1.0, npath, FL_SCATTERED, j, opl, sx0, sy0, hist, H,
+                                              nq, nu, nv, nex, ney, nez)
                                         sp += 1
                                         npath += 1
                                         led[c, r_imp, C_ABS, line] -= cw
@@ -1059,7 +1192,10 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                             if F_REFRACT and it == 3 and med_n[m1, line] != med_n[m2, line]:
                                 # a slab on a boundary between two media (atmosphere shells): Fresnel
                                 # reflection at the boundary first, the slab takes the rest
-                                Rf = fresnel_unpolarized(cos_i, med_n[m1, line], med_n[m2, line])
+                                if F_POLAR:
+                                    Rf = Ar + Br * stq
+                                else:
+                                    Rf = fresnel_unpolarized(cos_i, med_n[m1, line], med_n[m2, line])
                                 R = Rf
                                 T *= 1.0 - Rf
                                 diffuse *= 1.0 - Rf
@@ -1077,6 +1213,12 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                 ox_, oy_, oz_, om = _toward(phx, phy, phz, plx, ply, plz, o_bc, o_br, tgt, v0, v1)
                                 co = ox_ * nvx + oy_ * nvy + oz_ * nvz
                                 f = _bsdf_eval(mk, Pm, line, -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz)
+                                nq = nu = nv = nex = ney = nez = 0.0
+                                if F_POLAR:
+                                    pf, nq, nu, nv, nex, ney, nez = _bsdf_mueller(
+                                        mk, Pm, line, -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz, stq, stu, stv, ex, ey,
+                                        ez)
+                                    f *= pf
                                 cw = w * f * abs(co) * om / nr
                                 if nee_cut > 0.0 and cw > 0.0:
                                     cw = _nee_roulette(cw, w * om / (math.pi * nr), nee_cut,
@@ -1085,7 +1227,8 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                     if F_HISTORY and ev - 1 < H:
                                         hist[ev - 1] = o * 8 + EV_S
                                     _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev, -1.0,
-                                          1.0, npath, FL_SCATTERED, j, opl, sx0, sy0, hist, H)
+                                          1.0, npath, FL_SCATTERED, j, opl, sx0, sy0, hist, H, nq, nu, nv,
+                                          nex, ney, nez)
                                     sp += 1
                                     npath += 1
                                     led[c, r_imp, C_ABS, line] -= cw
@@ -1109,12 +1252,29 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                             flags |= FL_REFLECTED
                             evkind = EV_R
                             excl = -1
+                            if F_POLAR:
+                                if it == IF_FRESNEL:
+                                    _f, stq, stu, stv = diattenuate(stq, stu, stv, Ar, Br, xr, yr)
+                                else:
+                                    stu = -stu      # a mirror or coating without polarization data: Rs = Rp,
+                                    stv = -stv      # no retardance (Jones diag(r, -r) in the frames s, d x s)
                         elif x_ < R + T:
                             led[c, o, C_TRA, line] += w * tot
                             led[c, o, C_ABS, line] += w * (1.0 - tot)
                             w *= tot
                             flags |= FL_TRANSMITTED
                             evkind = EV_T
+                            if F_POLAR:
+                                if it == IF_FRESNEL:
+                                    _f, stq, stu, stv = diattenuate(stq, stu, stv, At, Bt, xt, 0.0)
+                                elif it == IF_POLARIZER:
+                                    stq = 1.0
+                                    stu = 0.0
+                                    stv = 0.0
+                                elif it == IF_RETARDER:
+                                    cd = math.cos(o_pol[o, 1])
+                                    sd = math.sin(o_pol[o, 1])
+                                    stu, stv = stu * cd - stv * sd, stu * sd + stv * cd
                             if F_REFRACT and it >= 2:
                                 n1 = med_n[m1, line]
                                 n2 = med_n[m2, line]
@@ -1134,6 +1294,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                             wi_z = -dz
                             wout = 0.0
                             wdelta = 0.0
+                            fq = fu = fv = fex = fey = fez = 0.0
                             w_first = 0.0
                             first_delta = False
                             for q in range(nsplit):
@@ -1146,6 +1307,18 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                     sx, sy, sz, _tir = refract(sx, sy, sz, nwx, nwy, nwz, med_n[m1, line],
                                                                med_n[m2, line])
                                 cw = w * sw * tot / diffuse / nsplit
+                                nq = stq
+                                nu = stu
+                                nv = stv
+                                nex = ney = nez = 0.0
+                                if F_POLAR:
+                                    if sdelta:      # a slab's unscattered beam keeps its state
+                                        nex, ney, nez = frame(sx, sy, sz, ex, ey, ez)
+                                    else:           # the model's Mueller matrix (depolarizing unless it has one)
+                                        pf, nq, nu, nv, nex, ney, nez = _bsdf_mueller(
+                                            mk, Pm, line, wi_x, wi_y, wi_z, sx, sy, sz, nvx, nvy, nvz, stq, stu, stv,
+                                            ex, ey, ez)
+                                        cw *= pf
                                 wout += cw
                                 if sdelta:
                                     wdelta += cw
@@ -1155,11 +1328,18 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                     dz = sz
                                     w_first = cw
                                     first_delta = sdelta
+                                    fq = nq
+                                    fu = nu
+                                    fv = nv
+                                    fex = nex
+                                    fey = ney
+                                    fez = nez
                                 elif cw > 0.0 and sp < SMAX:
                                     if F_HISTORY and ev - 1 < H:
                                         hist[ev - 1] = o * 8 + EV_S
                                     _push(stack, sp, phx, phy, phz, plx, ply, plz, sx, sy, sz, cw, w0 / nsplit, ev,
-                                          sc_tgt, 0.0, npath, flags | FL_SCATTERED, j, opl, sx0, sy0, hist, H)
+                                          sc_tgt, 0.0, npath, flags | FL_SCATTERED, j, opl, sx0, sy0, hist, H,
+                                          nq, nu, nv, nex, ney, nez)
                                     sp += 1
                                     npath += 1
                                 elif cw > 0.0:
@@ -1169,6 +1349,13 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                             led[c, o, C_ABS, line] += w - wout
                             w = w_first
                             w0 = w0 / nsplit
+                            if F_POLAR:
+                                stq = fq
+                                stu = fu
+                                stv = fv
+                                ex = fex
+                                ey = fey
+                                ez = fez
                             if first_delta:
                                 flags |= FL_TRANSMITTED
                                 evkind = EV_T
@@ -1184,6 +1371,8 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                 dx *= g
                                 dy *= g
                                 dz *= g
+                            if F_POLAR:
+                                ex, ey, ez = frame(dx, dy, dz, ex, ey, ez)
                     if F_HISTORY and ev - 1 < H:
                         hist[ev - 1] = o * 8 + evkind
                     jlast = j      # the surface just left: its departure root is dropped on the next search
@@ -1247,6 +1436,7 @@ def reduce_batch(led, inc_sq, dep_idx, dep_w, dep_n, ledger, ledger_sq, img, img
     d_lo[d] + line * npix + pixel; a detector with filters (d_nb[d] = B > 0) adds w T[line, b] to each filter
     image b (its (L, B) matrix at d_fm[d_fm_off[d]:]), else the deposit goes to the line's own image."""
     nd = d_lo.shape[0]
+    L = led.shape[3]
     for c in range(led.shape[0]):
         ledger += led[c]
         ledger_sq += inc_sq[c]
@@ -1262,12 +1452,16 @@ def reduce_batch(led, inc_sq, dep_idx, dep_w, dep_n, ledger, ledger_sq, img, img
                 img[i_off[d] + rel] += w
                 img_sq[i_off[d] + rel] += w * w
             else:
+                # a polarized trace's deposits run over (Stokes component, line): component k's filter
+                # images follow component k - 1's
                 npx = d_npix[d]
-                line = rel // npx
-                pix = rel - line * npx
+                cl = rel // npx
+                comp = cl // L
+                line = cl - comp * L
+                pix = rel - cl * npx
                 base = d_fm_off[d] + line * B
                 for b in range(B):
                     wb = w * d_fm[base + b]
                     if wb != 0.0:
-                        img[i_off[d] + b * npx + pix] += wb
-                        img_sq[i_off[d] + b * npx + pix] += wb * wb
+                        img[i_off[d] + (comp * B + b) * npx + pix] += wb
+                        img_sq[i_off[d] + (comp * B + b) * npx + pix] += wb * wb

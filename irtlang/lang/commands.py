@@ -490,12 +490,17 @@ def _update(it, obj, **kw):
     "REFLECT": Form(),
     "ABSORB": Form(),
     "TRANSMIT": Form((Ref("back", "medium"), Ref("front", "medium"))),
+    "POLARIZER": Form((V("angle", ANGLE), Ref("back", "medium", optional=True), Ref("front", "medium", optional=True))),
+    "RETARDER": Form((V("angle", ANGLE), V("retardance", ANGLE), Ref("back", "medium", optional=True),
+                      Ref("front", "medium", optional=True))),
 }),)), "geometry", "the current object's optical interface")
 def _interface(it, b, st):
     obj = _current(it, b)
     kind = b.variants["kind"].lower()
-    back, front = b.get("back", "AIR"), b.get("front", "AIR")
-    _update(it, obj, interface=M.Interface(kind, b.get("coating"), back, front, b.span))
+    back = b.get("back", "AIR")
+    front = b.get("front", back if kind in ("polarizer", "retarder") else "AIR")
+    _update(it, obj, interface=M.Interface(kind, b.get("coating"), back, front, b.span, b.get("angle", 0.0),
+                                           b.get("retardance", 0.0)))
 
 
 @command("SCATTER", Form((Variants("how", {
@@ -705,6 +710,12 @@ def _flux(it, b, st):
 
 
 # ==================================================================== 8. trace
+@command("POLARIZATION", Form((Choice("state", ("ON", "OFF"), optional=True),)), "trace",
+         "rays carry Stokes vectors (I, Q, U, V): polarizing interfaces and scattering, Stokes images")
+def _polarization(it, b, st):
+    it.state.polarization = b.get("state", "ON") == "ON"
+
+
 @command("LEVEL", Form((V("level", integer=True, check=positive),)), "trace", "at most this many interactions per ray")
 def _level(it, b, st):
     it.state.level = b["level"]
@@ -1102,7 +1113,8 @@ def _focus(it, b, st):
 
 @command("EXPORT", Form((Ref("object", "object"), Path("file")), (
     Clause("DIFFRACTION", (), doc="the detector image convolved with the last PSF's diffraction kernel"),
-    Clause("FILTER", (Ref("filter", "spectrum"),), doc="only that filter's image (a DETECTOR with FILTERS)"))),
+    Clause("FILTER", (Ref("filter", "spectrum"),), doc="only that filter's image (a DETECTOR with FILTERS)"),
+    Clause("STOKES", (), doc="a polarized trace's I, Q, U, V images and DOLP, AOLP maps (files name_I.ext, ...)"))),
          "analysis", "write the object's image: .fits .png .npy .csv by extension")
 def _export(it, b, st):
     f = b["file"]
@@ -1110,6 +1122,10 @@ def _export(it, b, st):
     if ext not in ("fits", "fit", "png", "npy", "csv"):
         raise error(b.span_of("file"), f"EXPORT cannot write '.{ext}' files", "use .fits, .png, .npy or .csv")
     extra = {"diffraction": True} if "diffraction" in b else {}
+    if "stokes" in b:
+        if "diffraction" in b:
+            raise error(b.span, "EXPORT ... STOKES cannot be combined with DIFFRACTION", "export them separately")
+        extra["stokes"] = True
     if "filter" in b:
         obj = it.state.objects.get(b["object"])
         det = obj.detector if obj is not None else None

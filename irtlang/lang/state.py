@@ -45,6 +45,7 @@ class State:
     level: int = 1000
     halt: float = 1e-6
     importance_cut: float = 0.0
+    polarization: bool = False
     traces: int = 0                            # TRACE commands so far (a group may move between them)
     placed_trace: dict = field(default_factory=dict)   # group key -> the value of traces when it was placed
     first_per_line: Span | None = None         # first wavelength-dependent definition
@@ -55,4 +56,4 @@ class State:
         fp = M.frozen_params
         return M.Scene(self.units, self.wavelengths_nm, self.seed, fp(self.media), fp(self.coatings),
                        fp(self.spectra), fp(self.models), fp(self.maps), fp(self.objects), fp(self.groups),
-                       tuple(self.sources), self.importance_cut)
+                       tuple(self.sources), self.importance_cut, self.polarization)

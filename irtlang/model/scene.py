@@ -138,11 +138,13 @@ class Surface:
 
 @dataclass(frozen=True)
 class Interface:
-    kind: str                   # coating | reflect | absorb | transmit
+    kind: str                   # coating | reflect | absorb | transmit | polarizer | retarder
     coating: str | None
     back: str                   # medium on the side the normal points away from
     front: str                  # medium on the side the normal points to
     span: Span = NO_SPAN
+    angle: float = 0.0          # polarizer / retarder: the axis, rad from the object's local x toward its y
+    retardance: float = 0.0     # retarder: the slow axis's phase delay, rad
 
 
 @dataclass(frozen=True)
@@ -219,6 +221,7 @@ class Scene:
     groups: Mapping = field(default_factory=frozen_params)
     sources: tuple = ()
     importance_cut: float = 0.0     # HALT ... IMPORTANCE c: roulette of rays sent toward targets
+    polarization: bool = False      # POLARIZATION: rays carry Stokes vectors
 
     @property
     def n_lines(self) -> int:

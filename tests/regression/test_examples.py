@@ -10,7 +10,8 @@ import pytest
 from irtlang.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples_scripts"
-MINE = ["singlet_spot", "glass_plate", "prism_tir", "paraboloid_focus", "mesh_object", "adjoint_sphere"]
+MINE = ["singlet_spot", "glass_plate", "prism_tir", "paraboloid_focus", "mesh_object", "adjoint_sphere",
+        "polarization_bench"]
 
 
 def run_example(name, tmp_path, capsys):
@@ -141,8 +142,35 @@ def _adjoint(out, d, led):
     assert img[0, :, 40:].sum() > 3 * img[0, :, :24].sum()
 
 
+def _polarization(out, d, led):
+    """Circular light at Brewster's angle on n = 1.5 (the script's header, worked out by hand): the window reflects
+    0.25 Rs = 0.036982 W (binomial over 20000 rays of 0.5 W, 5 sigma), s-polarized (degree 1 in every lit pixel, no
+    circular part left: rp = 0), the rest is transmitted."""
+    import numpy as np
+
+    R = 0.25 * 0.14792899408284016
+    r = led["reflected"]["incident_W"]
+    p = R / 0.5                         # each ray carries 0.5 W past the polarizer and reflects with chance p
+    assert abs(r - R) <= 5 * 0.5 * math.sqrt(p * (1 - p) / 20000), r
+    assert r + led["transmitted"]["incident_W"] == pytest.approx(0.5, rel=1e-12)
+    i = np.load(d / "reflected_I.npy")
+    dolp = np.load(d / "reflected_DOLP.npy")
+    lit = i > 0
+    assert lit.sum() > 50 and i.sum() == pytest.approx(r, rel=1e-12)
+    assert np.allclose(dolp[lit], 1.0, atol=1e-9)
+    assert np.allclose(np.load(d / "reflected_V.npy"), 0.0, atol=1e-15)
+    for k in "IQUV":
+        assert (d / f"reflected_{k}.png").exists() and (d / f"transmitted_{k}.npy").exists()
+    # the transmitted light is partly polarized along p: Tp = 1, Ts = 1 - Rs, so its degree is
+    # (Tp - Ts) / (Tp + Ts) = Rs / (2 - Rs) on every lit pixel
+    it, dt = np.load(d / "transmitted_I.npy"), np.load(d / "transmitted_DOLP.npy")
+    Rs = 0.14792899408284016
+    assert np.allclose(dt[it > 0], Rs / (2 - Rs), atol=1e-9)
+
+
 CHECKS = {"singlet_spot": _singlet, "glass_plate": _glass_plate, "prism_tir": _prism,
-          "paraboloid_focus": _paraboloid, "mesh_object": _mesh, "adjoint_sphere": _adjoint}
+          "paraboloid_focus": _paraboloid, "mesh_object": _mesh, "adjoint_sphere": _adjoint,
+          "polarization_bench": _polarization}
 
 
 OTHERS = sorted(p.stem for p in EXAMPLES.glob("*.inr")

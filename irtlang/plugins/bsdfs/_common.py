@@ -30,6 +30,7 @@ import math
 import numba
 import numpy as np
 
+from ...kernels.polar import frame
 from ...kernels.sampling import onb
 
 MU_MIN = 1e-9          # floor on every cosine in the kernels (grazing directions never give NaN or inf)
@@ -244,3 +245,14 @@ def slab_scatter(wix, wiy, wiz, nx, ny, nz, mu, u, tau, ci, norm, om):
     co = ox * nx + oy * ny + oz * nz
     G = slab_geometry(tau, max(ci, MU_MIN), max(abs(co), MU_MIN), co > 0.0)
     return ox, oy, oz, G * abs(co) * norm / om, False
+
+
+# ---------------------------------------------------------------- polarization
+@numba.njit(cache=True, inline="always")
+def depolarize(P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz, q, u, v, ex, ey, ez):
+    """A scatter model's ``mueller`` for POLARIZATION traces when the plugin has none: the scattered light leaves
+    unpolarized, with the scalar model's intensity.  The contract: (I factor relative to the scalar BSDF,
+    q', u', v', e1') for incoming Stokes (1, q, u, v) referred to e (perpendicular to the incoming direction
+    -wi), the outgoing state referred to e1' (perpendicular to wo); kernels/polar.py states the conventions."""
+    fx, fy, fz = frame(wox, woy, woz, ex, ey, ez)
+    return 1.0, 0.0, 0.0, 0.0, fx, fy, fz

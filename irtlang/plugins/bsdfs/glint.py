@@ -33,6 +33,11 @@ large at beta = 0).
 Reciprocity: the glint term is reciprocal (symmetric in wi, wo); the Lambert term as specified depends on
 mu_s only (through TIS), so the full model is reciprocal only where TIS(mu_s) = TIS(mu_v) or ALBEDO <= TIS.
 
+Polarization (``mueller``): the glint term reflects by Fresnel's Mueller matrix on the facet (its plane of
+incidence holds wi, wo and h; e1' = its normal, s), divided by F so that its I row for unpolarized light is the
+scalar model; the water-leaving Lambert term depolarizes.  The outgoing state is the mix of both by their
+shares of f at (wi, wo).
+
 Sampling: with probability A_L / (A_L + TIS), A_L = max(0, ALBEDO - TIS(mu_s)), a cosine-weighted direction,
 otherwise a facet normal from the slope distribution (tan^2 beta = -s^2 ln u, uniform azimuth: density
 p / cos^3 beta per steradian of h) and the mirror direction wo = 2 (wi.h) h - wi, density
@@ -48,6 +53,7 @@ import numpy as np
 from ...lang.spec import Clause, Form, PL, V, nonneg, unit_interval
 from ...core.units import SPEED
 from ...kernels.optics import fresnel_unpolarized
+from ...kernels.polar import frame, fresnel_mueller, perpendicular, rotate
 from ...kernels.sampling import cosine_hemisphere, onb
 from ._common import INV_PI, MU_MIN, table_interp, table_mu_nodes
 
@@ -297,3 +303,28 @@ def albedo(P, k, cos_i):
 @numba.njit(cache=True, fastmath=False)
 def direct_transmission(P, k, cos_i):
     return 0.0
+
+
+@numba.njit(cache=True, fastmath=False)
+def mueller(P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz, q, u, v, ex, ey, ez):
+    """Polarized reflection (the contract: plugins/bsdfs/_common.depolarize): the glint's share of f reflects
+    by the facet's Fresnel Mueller matrix over F, the Lambert share leaves unpolarized."""
+    f = eval(P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz)
+    fg = glint_brdf(P[0, k], P[1, k], wix, wiy, wiz, wox, woy, woz, nx, ny, nz)
+    hx = wix + wox
+    hy = wiy + woy
+    hz = wiz + woz
+    hm = math.sqrt(hx * hx + hy * hy + hz * hz)
+    # the incoming ray's direction is -wi; s = d x h / |d x h| (the facet's plane of incidence holds wo too)
+    sx, sy, sz = perpendicular(-wix, -wiy, -wiz, hx, hy, hz, ex, ey, ez)
+    if not (f > 0.0 and fg > 0.0 and hm > 0.0):
+        fx, fy, fz = frame(wox, woy, woz, sx, sy, sz)
+        return 1.0, 0.0, 0.0, 0.0, fx, fy, fz
+    g = fg / f
+    qs, us = rotate(-wix, -wiy, -wiz, ex, ey, ez, q, u, sx, sy, sz)
+    A, B, x, y, _a, _b, _c = fresnel_mueller((wix * hx + wiy * hy + wiz * hz) / hm, 1.0, P[1, k])
+    i1 = g * (A + B * qs) / A + (1.0 - g)
+    if not (i1 > 0.0):
+        return 0.0, 0.0, 0.0, 0.0, sx, sy, sz
+    c = g / (A * i1)
+    return i1, c * (B + A * qs), c * (x * us - y * v), c * (y * us + x * v), sx, sy, sz

@@ -1,0 +1,382 @@
+"""Polarization (POLARIZATION; docs/tracer.md, "Polarization") against independent numbers:
+
+* Coulson, Dave & Sekera's tables as corrected by Natraj, Li & Yung (2009, ApJ 691, 1909), ORACLES.md: I, Q, U
+  reflected and transmitted by a conservative Rayleigh layer (tau = 0.5, no depolarization) over a Lambertian
+  ground of albedo 0, 0.25 and 0.8.  The files (tests/physics/data/cds/, tau 0.5 only) are copied unchanged from
+  the public repository RemoteSensingTools/vSmartMOM.jl (test/benchmarks/natraj_cds/CDS, Apache-2.0, commit
+  d6051b7).  I within 1 % plus 3 standard errors, the degree of polarization within 0.01 (ORACLES.md).
+* Fresnel closed forms: the Brewster angle (the reflected light is s-polarized: degree 1), the degree of
+  polarization of reflected and transmitted light at other angles, (Rs - Rp) / (Rs + Rp); total internal
+  reflection's retardance, tan(delta/2) = cos(theta) sqrt(sin^2 theta - n^2) / sin^2 theta.
+* Malus's law through two ideal polarizers, and a quarter-wave retarder's circular light worked out by hand in
+  Jones calculus (the sign of V).
+
+Conventions (docs/tracer.md): a detector refers Q and U to its local x projected across the ray (e1) and
+e2 = d x e1 (d the ray's direction); V > 0 turns from e1 toward e2.  The tables refer Q and U to the meridian
+plane, Q > 0 for a horizontal electric vector (ORACLES.md).  The eye below is a disk whose local x is the
+horizontal perpendicular to the meridian plane, so Q_table = Q.  The tables' second axis points the other way
+from ours (e2 = d x e1 points up the meridian, toward the zenith for upwelling light; theirs points down it):
+U_table = -U, at every geometry, upwelling and downwelling.  That is a convention, fixed once; the test checks it
+at geometries where U is large (up to 0.7 I) in both directions, so a wrong sign anywhere would fail.
+
+The test suite traces with one polarized kernel with every feature (tests/conftest.py): one compilation.
+"""
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _trace_util import ledger_gap, trace_text  # noqa: E402
+
+DATA = Path(__file__).resolve().parent / "data" / "cds"
+D = 1.0e9
+R_EYE = 1.0e5
+OMEGA = math.pi * R_EYE ** 2 / D ** 2
+N_RAYS = 2_000_000
+
+
+
+# ------------------------------------------------------------------------------------------------ the tables
+def cds_table(stokes: str, where: str) -> dict:
+    """{(albedo, mu0, mu): [value at phi = 0, 30, ..., 180]} from one of the table files."""
+    out, albedo = {}, None
+    for ln in (DATA / f"{stokes}_{where}_TAU_0.5").read_text().splitlines():
+        if "albedo =" in ln:
+            albedo = float(ln.split("=")[1])
+            continue
+        parts = ln.split()
+        if len(parts) == 9 and albedo is not None:
+            try:
+                vals = [float(x) for x in parts]
+            except ValueError:
+                continue
+            out[(albedo, vals[0], vals[1])] = vals[2:]
+    return out
+
+
+def test_cds_tables_read_as_published():
+    """The files as read: 3 albedos x 7 mu0 x 16 mu rows, and two values of the 00README's examples: the first
+    row of I_UP (0.38088723 at phi = 0) and U = 0 at phi = 0 and 180 (the principal plane) everywhere."""
+    i_up = cds_table("I", "UP")
+    assert len(i_up) == 3 * 7 * 16
+    assert i_up[(0.0, 0.1, 0.02)][0] == 0.38088723
+    u_up = cds_table("U", "UP")
+    assert all(v[0] == 0.0 and v[6] == 0.0 for v in u_up.values())
+
+
+# ------------------------------------------------------------------------------------------------ the layer
+def _eye_block(th: float, alpha: float, up: bool = True) -> str:
+    """A disk detector at D in the direction (th from the zenith, or from the nadir if not up; azimuth alpha),
+    facing the origin; ROTATE Z 90 first puts its local x, after the tilt and the turn, along the horizontal
+    normal to the meridian plane (the tables' Q > 0 direction)."""
+    s = math.sin(math.radians(th))
+    c = math.cos(math.radians(th))
+    pos = (D * s * math.cos(math.radians(alpha)), D * s * math.sin(math.radians(alpha)), D * c if up else -D * c)
+    return f"""SURFACE
+  PLANE Z 0 ELLIPSE {R_EYE!r} {R_EYE!r}
+OBJECT eye
+  INTERFACE ABSORB
+  DETECTOR PIXELS 1
+  ROTATE Z 90
+  ROTATE Y {th if up else 180.0 - th!r}
+  ROTATE Z {alpha!r}
+  SHIFT {pos[0]!r} {pos[1]!r} {pos[2]!r}
+"""
+
+
+def layer_script(albedo: float, mu0: float, mu: float, phi: float, up: bool, n: int, seed: int = 5) -> str:
+    """The Rayleigh layer (1 km, tau 0.5) lit by a collimated beam propagating toward azimuth 180 deg at
+    theta0 = acos(mu0), watched by a disk eye at D in the direction (theta, 180 deg + phi) (phi = 0: the forward
+    side), up or down; every volume and ground scattering sends one ray toward the eye."""
+    th0 = math.degrees(math.acos(mu0))
+    th = math.degrees(math.acos(mu))
+    alpha = 180.0 + phi
+    if up:
+        ground = f"""MODEL soil LAMBERTIAN {albedo!r}
+SURFACE
+  PLANE Z 0 RECT 1e6 1e6
+OBJECT ground
+  INTERFACE COATING black VACUUM layer
+  SCATTER MODEL soil TOWARD eye
+"""
+    else:
+        assert albedo == 0.0     # transmitted light is watched from below: no ground in the way
+        ground = """SURFACE
+  PLANE Z 0 RECT 1e6 1e6
+OBJECT ground
+  INTERFACE TRANSMIT VACUUM layer
+"""
+    return f"""UNITS M
+WAVELENGTHS 550 NM
+SEED {seed}
+POLARIZATION
+MEDIUM layer INDEX 1 VOLUME EXTINCTION (0.5 / 1000 m) ALBEDO 1 PHASE RAYLEIGH DEPOL 0 TOWARD eye
+COATING black REFLECT 0
+{ground}SURFACE
+  PLANE Z 1000 RECT 1e6 1e6
+OBJECT top
+  INTERFACE TRANSMIT layer VACUUM
+{_eye_block(th, alpha, up)}GRID RECT Z 2000 -5000 5000 -5000 5000 {n} 1 RANDOM
+SOURCE DIRECTION (-sin({th0!r})) 0 (-cos({th0!r}))
+FLUX TOTAL 1 W
+LEVEL 300
+HALT 0
+TRACE
+"""
+
+
+def eye_stokes(res, mu0: float, mu: float):
+    """(I, Q, U, V) in the tables' normalization and their standard errors.  The beam's 1 W over the grid's
+    horizontal area A is mu0 E0 A; a radiance L leaving the lit area reaches the eye as L A mu Omega; the
+    tables give pi L / E0, so I = pi Phi mu0 / (mu Omega) (ORACLES.md; test_scatter_volume.py's geometry)."""
+    s1, s2 = res.stokes["eye"]
+    n = res.n_traced
+    x = s1[:, 0, 0, 0]
+    var = np.maximum(s2[:, 0, 0, 0] - x * x / n, 0.0) * n / (n - 1)
+    k = math.pi * mu0 / (mu * OMEGA)
+    return x * k, np.sqrt(var) * k
+
+
+CASES = [  # (albedo, mu0, mu, phi, up)
+    (0.0, 0.6, 0.4, 60, True),
+    (0.0, 0.6, 0.4, 120, True),
+    (0.25, 0.92, 0.64, 90, True),
+    (0.8, 0.4, 0.84, 30, True),
+    (0.8, 0.6, 0.2, 150, True),
+    (0.0, 0.6, 0.52, 90, False),
+    (0.0, 0.92, 0.28, 150, False),
+]
+
+
+@pytest.mark.parametrize("albedo,mu0,mu,phi,up", CASES)
+def test_rayleigh_layer_against_coulson_dave_sekera(tmp_path, albedo, mu0, mu, phi, up):
+    where = "UP" if up else "DN"
+    k = [0, 30, 60, 90, 120, 150, 180].index(phi)
+    ref = {s: cds_table(s, where)[(albedo, mu0, mu)][k] for s in "IQU"}
+    res = trace_text(tmp_path, layer_script(albedo, mu0, mu, phi, up, N_RAYS), records=False)
+    (i, q, u, v), (si, sq, su, sv) = eye_stokes(res, mu0, mu)
+    u = -u                                  # the tables' U (module docstring)
+    assert si < 0.004 * ref["I"]            # the check means something
+    assert abs(i - ref["I"]) <= 0.01 * ref["I"] + 3 * si, (i, si, ref)
+    dop, dop_ref = math.hypot(q, u) / i, math.hypot(ref["Q"], ref["U"]) / ref["I"]
+    assert abs(dop - dop_ref) <= 0.01, (dop, dop_ref)
+    for got, se, want in ((q, sq, ref["Q"]), (u, su, ref["U"])):
+        assert abs(got - want) <= 0.01 * ref["I"] + 3 * se, (got, se, want)
+    assert v == 0.0                         # Rayleigh scattering of unpolarized light makes no circular part
+    assert ledger_gap(res) < 1e-12
+
+
+# ------------------------------------------------------------------------------------------------ the bench
+def bench(elements: str, *, n: int = 400) -> str:
+    """A collimated 1 W beam (n rays) going down from z = 50 mm through `elements` onto their detectors."""
+    return f"""UNITS MM
+WAVELENGTHS 550 NM
+SEED 2
+POLARIZATION
+MEDIUM glass INDEX 1.5
+{elements}
+GRID RECT Z 50 -1 1 -1 1 {n} 1 RANDOM
+SOURCE DIRECTION 0 0 -1
+FLUX TOTAL 1 W
+TRACE
+"""
+
+
+def _det(name: str = "det", where: str = "PLANE Z 0 RECT 5 5", extra: str = "") -> str:
+    return f"""SURFACE
+  {where}
+OBJECT {name}
+  INTERFACE ABSORB
+  DETECTOR PIXELS 1
+{extra}"""
+
+
+def det_stokes(res, name: str = "det"):
+    s1, _ = res.stokes[name]
+    return s1[:, 0, 0, 0]
+
+
+@pytest.mark.parametrize("theta", [0.0, 30.0, 60.0, 90.0])
+def test_malus_law(tmp_path, theta):
+    """Unpolarized 1 W through a polarizer along x, then one at theta: I = cos^2(theta) / 2, exactly (ideal
+    polarizers weight the ray, no random choice); the light leaves along the second axis: Q = I cos 2 theta and
+    U = -I sin 2 theta in the detector's frame (e1 = x, e2 = d x x = -y for light going down)."""
+    els = f"""SURFACE
+  PLANE Z 20 RECT 5 5
+OBJECT p1
+  INTERFACE POLARIZER 0
+SURFACE
+  PLANE Z 10 RECT 5 5
+OBJECT p2
+  INTERFACE POLARIZER {theta!r}
+""" + _det()
+    res = trace_text(tmp_path, bench(els), records=False)
+    i, q, u, v = det_stokes(res)
+    t = math.radians(theta)
+    want = 0.5 * math.cos(t) ** 2
+    assert i == pytest.approx(want, abs=1e-12)
+    assert q == pytest.approx(want * math.cos(2 * t), abs=1e-12)
+    assert u == pytest.approx(-want * math.sin(2 * t), abs=1e-12)
+    assert v == 0.0
+    assert ledger_gap(res) < 1e-12
+
+
+def test_quarter_wave_retarder_makes_circular_light(tmp_path):
+    """A polarizer along x, then a quarter-wave retarder with its fast axis at +45 deg: by hand in Jones
+    calculus, E = x splits into (f - s)/sqrt 2 along the fast and slow axes; the slow one is delayed by
+    exp(i pi/2), giving E = ((1 + i) x + (1 - i) y) / 2, whose real field turns from (1, 1) to (1, -1) as
+    time goes on: clockwise seen from +z, counter-clockwise seen by an observer facing the light (which goes
+    toward -z): V = +I.  A second identical retarder makes linear light along y: Q = -I."""
+    qwp = """SURFACE
+  PLANE Z {z} RECT 5 5
+OBJECT {name}
+  INTERFACE RETARDER 45 90
+"""
+    base = """SURFACE
+  PLANE Z 20 RECT 5 5
+OBJECT p1
+  INTERFACE POLARIZER 0
+""" + qwp.format(z=10, name="q1")
+    res = trace_text(tmp_path, bench(base + _det()), records=False)
+    i, q, u, v = det_stokes(res)
+    assert i == pytest.approx(0.5, abs=1e-12)
+    assert (q, u) == pytest.approx((0.0, 0.0), abs=1e-12)
+    assert v == pytest.approx(0.5, abs=1e-12)
+    res = trace_text(tmp_path, bench(base + qwp.format(z=5, name="q2") + _det()), records=False)
+    i, q, u, v = det_stokes(res)
+    assert (i, q, u, v) == pytest.approx((0.5, -0.5, 0.0, 0.0), abs=1e-12)
+
+
+def fresnel_power(theta, n1, n2):
+    """Textbook Fresnel power coefficients (Hecht, Optics, 4th ed., eqs. 4.34, 4.40, 4.62-4.63): Rs, Rp, Ts, Tp."""
+    ci = math.cos(theta)
+    st = n1 / n2 * math.sin(theta)
+    ct = math.sqrt(1 - st * st)
+    rs = (n1 * ci - n2 * ct) / (n1 * ci + n2 * ct)
+    rp = (n2 * ci - n1 * ct) / (n2 * ci + n1 * ct)
+    ts = 2 * n1 * ci / (n1 * ci + n2 * ct)
+    tp = 2 * n1 * ci / (n2 * ci + n1 * ct)
+    k = n2 * ct / (n1 * ci)
+    return rs * rs, rp * rp, k * ts * ts, k * tp * tp
+
+
+@pytest.mark.parametrize("theta", [30.0, math.degrees(math.atan(1.5)), 70.0])
+def test_fresnel_reflection_and_transmission(tmp_path, theta):
+    """Unpolarized light onto glass (n = 1.5) at theta (the glass tilted, the beam along -z): the reflected light
+    is polarized by (Rs - Rp)/(Rs + Rp), degree 1 at Brewster's angle atan(1.5) = 56.31 deg, and the transmitted
+    light by (Tp - Ts)/(Ts + Tp).  Each ray carries its whole weight one way: the fluxes (Rs + Rp)/2 and
+    (Ts + Tp)/2 within 5 binomial sigmas, their sum exactly 1; the degrees of polarization exactly (every ray of
+    a beam has the same state)."""
+    Rs, Rp, Ts, Tp = fresnel_power(math.radians(theta), 1.0, 1.5)
+    assert Rs + Ts == pytest.approx(1.0, abs=1e-12) and Rp + Tp == pytest.approx(1.0, abs=1e-12)
+    # the face's normal is (sin t, 0, cos t): the reflected beam goes along (sin 2t, 0, cos 2t) to a detector at
+    # x = 30 mm, the transmitted one into a detector 10 mm behind the face, parallel to it
+    els = f"""SURFACE
+  PLANE Z 0 RECT 20 20
+OBJECT face
+  INTERFACE TRANSMIT glass AIR
+  ROTATE Y {theta!r}
+""" + _det("rdet", "PLANE X 30 RECT 60 60") + _det("tdet", "PLANE Z -10 RECT 40 40", f"  ROTATE Y {theta!r}\n")
+    n = 20000
+    res = trace_text(tmp_path, bench(els, n=n), records=False)
+    ir, qr, ur, vr = det_stokes(res, "rdet")
+    it, qt, ut, vt = det_stokes(res, "tdet")
+    R, T = 0.5 * (Rs + Rp), 0.5 * (Ts + Tp)
+    sig = math.sqrt(R * (1 - R) / n)
+    assert abs(ir - R) <= 5 * sig and abs(it - T) <= 5 * sig, (ir, R, it, T, sig)
+    assert ir + it == pytest.approx(1.0, abs=1e-12)          # a lossless interface
+    assert math.hypot(qr, ur) / ir == pytest.approx((Rs - Rp) / (Rs + Rp), abs=1e-9)
+    assert math.hypot(qt, ut) / it == pytest.approx((Tp - Ts) / (Ts + Tp), abs=1e-9)
+    assert vr == 0.0 and vt == 0.0
+    assert ledger_gap(res) < 1e-12
+
+
+@pytest.mark.parametrize("theta", [45.0, 50.0, 60.0, 75.0])
+def test_total_internal_reflection_retardance(tmp_path, theta):
+    """Linear light at 45 deg to the plane of incidence, totally reflected inside glass (n = 1/1.5 relative):
+    the p-s phase difference delta makes it elliptical, |V| / I = |sin delta| with tan(delta/2) = cos(theta)
+    sqrt(sin^2 theta - n^2) / sin^2 theta (ORACLES.md); nothing is lost (I = 1/2 after the polarizer) and it
+    stays fully polarized.  The polarizer's axis, 45 deg between x and y, is at 45 deg to the plane of
+    incidence (x, z)."""
+    n = 1.0 / 1.5
+    t = math.radians(theta)
+    delta = 2 * math.atan(math.cos(t) * math.sqrt(math.sin(t) ** 2 - n * n) / math.sin(t) ** 2)
+    els = f"""SURFACE
+  PLANE Z 20 RECT 5 5
+OBJECT pol
+  INTERFACE POLARIZER 45 glass glass
+SURFACE
+  PLANE Z 0 RECT 20 20
+OBJECT face
+  INTERFACE TRANSMIT AIR glass
+  ROTATE Y {theta!r}
+""" + _det("det", "PLANE X 30 RECT 60 60" if 2 * t < math.radians(135) else "PLANE Z -30 RECT 60 60")
+    res = trace_text(tmp_path, bench(els), records=False)
+    i, q, u, v = det_stokes(res)
+    assert i == pytest.approx(0.5, abs=1e-12)
+    assert abs(v) / i == pytest.approx(abs(math.sin(delta)), abs=1e-9), (v / i, math.sin(delta))
+    assert math.sqrt(q * q + u * u + v * v) / i == pytest.approx(1.0, abs=1e-9)
+    assert ledger_gap(res) < 1e-12
+
+
+def test_without_polarization_nothing_changes(tmp_path):
+    """No POLARIZATION: the scene packs for the scalar kernel (pays nothing); with it, or with a POLARIZER
+    alone (which only means something to a polarized trace), the polarized one."""
+    from irtlang.compile.pack import pack
+    from irtlang.lang.interp import check_file
+
+    def feats(text):
+        f = Path(tmp_path) / "s.inr"
+        f.write_text(text)
+        st = [s for s in check_file(f).steps if s.kind == "TRACE"][-1]
+        return pack(st.scene).features
+
+    text = bench(_det())
+    assert feats(text).polar
+    assert not feats(text.replace("POLARIZATION\n", "")).polar
+    assert feats(text.replace("POLARIZATION\n", "").replace("INTERFACE ABSORB\n  DETECTOR",
+                                                              "INTERFACE POLARIZER 10\n  DETECTOR")).polar
+
+
+@pytest.mark.parametrize("th0,thv,phi", [(53.0, 53.0, 0.0), (30.0, 30.0, 0.0), (40.0, 60.0, 30.0)])
+def test_glint_reflects_by_fresnel_on_the_facets(tmp_path, th0, thv, phi):
+    """A glint ocean (ALBEDO 0: no water-leaving term) lit by unpolarized light, watched from (thv, phi): every ray
+    reaching the eye was sent toward it from a facet whose normal h bisects the Sun's and the eye's directions,
+    so the light is polarized by Fresnel's (Rs - Rp)/(Rs + Rp) for water (n = 1.34) at the facet's incidence
+    angle acos(wi . h) (textbook Fresnel), normal to the facet's plane of incidence.  In the principal plane
+    (phi = 0, the specular direction and a direction beside it) that is horizontal: Q = +I, U = 0 in the eye's
+    frame; near Brewster's angle (53.3 deg) the degree is close to 1.  The eye is 2e-4 rad across, the lit patch
+    1e-5 rad: the facet angle varies by < 1e-4 rad over the rays, a change < 1e-4 in the degree."""
+    alpha = 180.0 + phi
+    text = f"""UNITS M
+WAVELENGTHS 550 NM
+SEED 4
+POLARIZATION
+MODEL sea GLINT WIND 5 m/s INDEX 1.34 ALBEDO 0
+SURFACE
+  PLANE Z 0 RECT 1e6 1e6
+OBJECT ocean
+  INTERFACE ABSORB
+  SCATTER MODEL sea TOWARD eye
+{_eye_block(thv, alpha)}GRID RECT Z 10 -5000 5000 -5000 5000 20000 1 RANDOM
+SOURCE DIRECTION (-sin({th0!r})) 0 (-cos({th0!r}))
+FLUX TOTAL 1 W
+TRACE
+"""
+    res = trace_text(tmp_path, text, records=False)
+    i, q, u, v = det_stokes(res, "eye")
+    t0, tv, a = math.radians(th0), math.radians(thv), math.radians(alpha)
+    wi = np.array([math.sin(t0), 0.0, math.cos(t0)])               # toward the Sun
+    wo = np.array([math.sin(tv) * math.cos(a), math.sin(tv) * math.sin(a), math.cos(tv)])
+    h = (wi + wo) / np.linalg.norm(wi + wo)
+    Rs, Rp, _, _ = fresnel_power(math.acos(float(wi @ h)), 1.0, 1.34)
+    dop = (Rs - Rp) / (Rs + Rp)
+    assert i > 0
+    assert math.hypot(q, u) / i == pytest.approx(dop, abs=2e-4), (math.hypot(q, u) / i, dop)
+    assert v == 0.0
+    if phi == 0.0:
+        assert q / i == pytest.approx(dop, abs=2e-4) and abs(u) / i < 1e-6
+    assert ledger_gap(res) < 1e-12
