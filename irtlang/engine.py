@@ -785,15 +785,15 @@ class Engine:
         for k, comp in enumerate("IQUV"):
             self._write_image(f"{stem}_{comp}.{ext}", s1[k], "image", extent=extent, sum2=s2[k], per_line=per_line,
                               name=f"{obj.name}_{comp}", bands=bands, interp=interp, kind_label=f"stokes_{comp}",
-                              quantity=None if k == 0 else (labels[comp], "W"))
+                              quantity=None if k == 0 else (labels[comp], "W", True))
         if ext.lower() == "png":      # one picture: the degree and angle of the light summed over the planes
             s1 = s1.sum(axis=1, keepdims=True)
         i = s1[0]
         with np.errstate(invalid="ignore", divide="ignore"):
             dolp = np.where(i > 0, np.hypot(s1[1], s1[2]) / np.where(i > 0, i, 1.0), 0.0)
         aolp = np.where(i > 0, np.degrees(0.5 * np.arctan2(s1[2], s1[1])), 0.0)
-        for comp, a, q in (("DOLP", dolp, ("degree of linear polarization", "")),
-                           ("AOLP", aolp, ("angle of linear polarization (deg from local x)", "deg"))):
+        for comp, a, q in (("DOLP", dolp, ("degree of linear polarization", "", False)),
+                           ("AOLP", aolp, ("angle of linear polarization (deg from local x)", "deg", False))):
             self._write_image(f"{stem}_{comp}.{ext}", a, "image", extent=extent, per_line=per_line and a.shape[0] > 1,
                               name=f"{obj.name}_{comp}", bands=bands if a.shape[0] > 1 else None, interp=interp,
                               kind_label=comp.lower(), quantity=q)

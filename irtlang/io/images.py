@@ -23,8 +23,9 @@ def write_image(path: Path, img: np.ndarray, *, sum2=None, extent=None, waveleng
     provenance: FITS header cards (irtlang_version, script_sha256, seed, data_tier, rays_traced, epoch_utc).
     `sum2`: the per-source-ray squared sums; the standard error is the tracer's (the same as every printed
     total's) when `n_traced` is given, else sqrt(sum2).  `psf`: a normalized PSF (energy fraction per pixel),
-    labelled as such (PNG colour bar, CSV column, FITS BUNIT).  `quantity`: (label, FITS BUNIT) of an image that is
-    not a flux (a polarization map, EXPORT ... STOKES): its PNG shows the first plane, not the sum of them."""
+    labelled as such (PNG colour bar, CSV column, FITS BUNIT).  `quantity`: (label, FITS BUNIT, additive) of an image
+    that is not a plain flux (EXPORT ... STOKES): its PNG's label, and the sum of its planes if additive (Stokes
+    Q, U, V), else the first plane (the degree and angle of polarization)."""
     path = Path(path)
     ext = path.suffix.lower()
     img = np.asarray(img, np.float64)
@@ -50,8 +51,8 @@ def write_image(path: Path, img: np.ndarray, *, sum2=None, extent=None, waveleng
                                      focal_length_m=focal_length_m, provenance=provenance, object_name=object_name,
                                      bunit=quantity[1] if quantity else "" if psf else "W"))
     elif ext == ".png":
-        if quantity:
-            _png(path, img[:1], extent, length_unit, label=quantity[0])
+        if quantity:       # a flux-like quantity (Stokes Q, U, V) sums over the planes, a map shows its first
+            _png(path, img if quantity[2] else img[:1], extent, length_unit, label=quantity[0])
         else:
             _png(path, img, extent, length_unit, label="normalized PSF (energy fraction per pixel)" if psf
                  else "flux per pixel (W)")

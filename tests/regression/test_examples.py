@@ -11,12 +11,15 @@ from irtlang.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples_scripts"
 MINE = ["singlet_spot", "glass_plate", "prism_tir", "paraboloid_focus", "mesh_object", "adjoint_sphere",
-        "polarization_bench"]
+        "polarization_bench", "polarized_planet"]
+
+
+SETTINGS = {"polarized_planet": ["--set", "rays=400000"]}      # a shorter run than the script's default
 
 
 def run_example(name, tmp_path, capsys):
     out_dir = tmp_path / name
-    code = main(["run", str(EXAMPLES / f"{name}.inr"), "--out", str(out_dir)])
+    code = main(["run", str(EXAMPLES / f"{name}.inr"), "--out", str(out_dir)] + SETTINGS.get(name, []))
     cap = capsys.readouterr()
     assert code == 0, cap.out + cap.err
     return cap.out, out_dir
@@ -168,9 +171,34 @@ def _polarization(out, d, led):
     assert np.allclose(dt[it > 0], Rs / (2 - Rs), atol=1e-9)
 
 
+def _planet(out, d, led):
+    """The planet at quadrature (the script's header).  Mirror symmetry about the scattering plane z = 0 (the image's
+    rows flip): I and Q are even, U odd, pixel by pixel: chi-square of the differences with both standard
+    errors, per degree of freedom within 5 sigma of 1 (sqrt(2/dof)).  Rayleigh scattering at 90 deg polarizes
+    perpendicular to the scattering plane (E along z, which is -e2 here: Q < 0) and strongly: the disk's
+    degree of linear polarization is above 0.5 (single scattering alone gives 0.946 at 90 deg; multiple scattering
+    and the ocean lower it)."""
+    import numpy as np
+
+    img = {k: (np.load(d / f"planet_{k}.npy")[0], np.load(d / f"planet_{k}.stderr.npy")[0]) for k in "IQUV"}
+    # nothing here makes circular light: Rayleigh scattering only carries V along (P44), and reflection off the
+    # facets without total internal reflection has real Fresnel amplitudes
+    assert not np.any(img["V"][0])
+    for k, sign in (("I", 1), ("Q", 1), ("U", -1)):
+        a, s = img[k]
+        diff = a - sign * a[::-1]
+        var = s ** 2 + s[::-1] ** 2
+        m = (var > 0) & (np.arange(a.shape[0])[:, None] < a.shape[0] // 2)     # each pair once
+        chi = float(np.sum(diff[m] ** 2 / var[m]) / m.sum())
+        assert abs(chi - 1) <= 5 * math.sqrt(2 / m.sum()), (k, chi, m.sum())
+    i, q, u = img["I"][0].sum(), img["Q"][0].sum(), img["U"][0].sum()
+    assert q < 0 and math.hypot(q, u) / i > 0.5, (q / i, u / i)
+    assert (d / "planet_DOLP.png").exists() and (d / "planet_AOLP.png").exists()
+
+
 CHECKS = {"singlet_spot": _singlet, "glass_plate": _glass_plate, "prism_tir": _prism,
           "paraboloid_focus": _paraboloid, "mesh_object": _mesh, "adjoint_sphere": _adjoint,
-          "polarization_bench": _polarization}
+          "polarization_bench": _polarization, "polarized_planet": _planet}
 
 
 OTHERS = sorted(p.stem for p in EXAMPLES.glob("*.inr")

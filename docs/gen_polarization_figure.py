@@ -1,0 +1,109 @@
+"""The polarization figures of docs/tracer.md.  Run: ``python docs/gen_polarization_figure.py [cds] [planet]``.
+
+* docs/img/polarization_cds.png: irtlang's polarized (and scalar) trace of a Rayleigh layer against the
+  Coulson-Dave-Sekera tables (Natraj et al. 2009); the scenes are tests/physics/test_polarization.py's (about a
+  minute once the kernels are compiled);
+* docs/img/polarization_planet.png: examples_scripts/polarized_planet.inr with 16 million rays (a few minutes):
+  the disk's I, degree and angle of linear polarization."""
+from __future__ import annotations
+
+import math
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests" / "physics"))
+sys.path.insert(0, str(ROOT))
+
+import numpy as np  # noqa: E402
+
+import test_polarization as T  # noqa: E402
+from _trace_util import trace_text  # noqa: E402
+
+PHI = [0, 30, 60, 90, 120, 150, 180]
+MU0, ALBEDO, N = 0.6, 0.0, 1_000_000
+
+
+def cds(out: Path = ROOT / "docs" / "img" / "polarization_cds.png") -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tmp = tempfile.mkdtemp()
+    fig, axs = plt.subplots(1, 3, figsize=(12, 3.8), dpi=110)
+    for mu, col in ((0.4, "C0"), (0.84, "C3")):
+        tab = {s: T.cds_table(s, "UP")[(ALBEDO, MU0, mu)] for s in "IQU"}
+        pol, sca = [], []
+        for phi in PHI:
+            text = T.layer_script(ALBEDO, MU0, mu, phi, True, N)
+            (i, q, u, v), (si, sq, su, sv) = T.eye_stokes(trace_text(tmp, text, records=False), MU0, mu)
+            pol.append((i, q, -u, si, sq, su))
+            res = trace_text(tmp, text.replace("POLARIZATION\n", ""), records=False)
+            f, se = res.flux_on([n.upper() for n in res.rows].index("EYE"))
+            k = math.pi * MU0 / (mu * T.OMEGA)
+            sca.append((f * k, se * k))
+        pol, sca = np.array(pol), np.array(sca)
+        for k, (ax, s) in enumerate(zip(axs, "IQU")):
+            ax.plot(PHI, tab[s], "-", color=col, lw=1.2, label=f"table, mu = {mu}")
+            ax.errorbar(PHI, pol[:, k], yerr=2 * pol[:, 3 + k], fmt="o", ms=4, color=col,
+                        label=f"irtlang POLARIZATION, mu = {mu}")
+            if s == "I":
+                ax.errorbar(PHI, sca[:, 0], yerr=2 * sca[:, 1], fmt="x", ms=5, color=col,
+                            label=f"irtlang scalar, mu = {mu}")
+        print(f"mu {mu}: scalar I off the table by "
+              + ", ".join(f"{100 * (a / b - 1):+.1f}%" for a, b in zip(sca[:, 0], tab["I"])))
+    for ax, s in zip(axs, "IQU"):
+        ax.set_xlabel("relative azimuth phi (deg)")
+        ax.set_ylabel(f"{s} (pi L / E0)")
+        ax.set_xticks(PHI)
+        ax.grid(alpha=0.3)
+    axs[0].legend(fontsize=7)
+    fig.suptitle(f"Rayleigh layer, tau = 0.5, black ground, mu0 = {MU0}: reflected I, Q, U "
+                 "(Coulson-Dave-Sekera, Natraj et al. 2009) vs irtlang (2 sigma bars)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(out)
+    print(out)
+
+
+def planet(out: Path = ROOT / "docs" / "img" / "polarization_planet.png", rays: int = 16_000_000) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from irtlang.cli import main as irt
+
+    d = Path(tempfile.mkdtemp())
+    assert irt(["run", str(ROOT / "examples_scripts" / "polarized_planet.inr"), "--out", str(d), "--quiet",
+                "--set", f"rays={rays}"]) == 0
+    i, q, u = (np.load(d / f"planet_{k}.npy")[0] for k in "IQU")
+    lit = i > 0.02 * i.max()
+    dolp = np.where(lit, np.hypot(q, u) / np.where(lit, i, 1), np.nan)
+    aolp = np.where(lit, np.degrees(0.5 * np.arctan2(u, q)), np.nan)
+    ext = (-1.1, 1.1, -1.1, 1.1)
+    fig, axs = plt.subplots(1, 3, figsize=(13, 4.2), dpi=110)
+    for ax, a, title, kw in ((axs[0], i / i.max(), "I (relative)", dict(cmap="gray", vmin=0, vmax=1)),
+                             (axs[1], dolp, "degree of linear polarization", dict(cmap="viridis", vmin=0, vmax=1)),
+                             (axs[2], aolp, "angle of polarization (deg from x)", dict(cmap="twilight", vmin=-90,
+                                                                                       vmax=90))):
+        im = ax.imshow(a, origin="lower", extent=ext, **kw)
+        ax.set_title(title, fontsize=10)
+        ax.set_xlabel("x on the detector (m)")
+        fig.colorbar(im, ax=ax, shrink=0.85)
+    axs[0].set_ylabel("y on the detector (m)")
+    tot = math.hypot(q.sum(), u.sum()) / i.sum()
+    fig.suptitle(f"polarized_planet.inr: Rayleigh atmosphere (tau 0.25) over a glint ocean at 90 deg phase, "
+                 f"{rays / 1e6:.0f} M rays; the disk's degree {tot:.3f}, E normal to the scattering plane", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(out)
+    print(out, f"disk degree {tot:.4f}, U/I {u.sum() / i.sum():+.4f}")
+
+
+if __name__ == "__main__":
+    which = sys.argv[1:] or ["cds", "planet"]
+    if "cds" in which:
+        cds()
+    if "planet" in which:
+        planet()
