@@ -198,13 +198,16 @@ class DaskRunner:
             try:
                 # a worker that died may still be starting again: broadcasting to no worker is an error
                 self.client.wait_for_workers(1, timeout=self.timeout)
-                fut = self.client.scatter(ctx.pk, broadcast=True, hash=False)
-                break
             except (OSError, TimeoutError) as e:
                 raise ClusterError(f"no Dask worker to send the scene to within {self.timeout:g} s ({e})") from None
-            except ValueError:   # the last worker left between the two calls
+            try:
+                fut = self.client.scatter(ctx.pk, broadcast=True, hash=False)
+                break
+            except (ValueError, OSError) as e:
+                # the last worker left between the two calls (no worker, or its stream closed under the
+                # scatter): wait for the next one
                 if attempt == 9:
-                    raise
+                    raise ClusterError(f"the scene could not be sent to a Dask worker in 10 tries ({e})") from None
                 time.sleep(0.2)
         self._scene = (weakref.ref(ctx), key, fut)
         return key, fut
