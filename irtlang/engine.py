@@ -604,6 +604,9 @@ class Engine:
             return
         if step.params.get("diffraction"):
             raise RuntimeFailure(step.span, f"EXPORT {obj.name} DIFFRACTION needs an object with a DETECTOR")
+        if step.params.get("stokes"):
+            raise RuntimeFailure(step.span, f"EXPORT {obj.name} STOKES needs an object with a DETECTOR (its pixels "
+                                 "tally Q, U and V)")
         # no DETECTOR: the WINDOW / PIXELS grid of the selected rays that ended on the object
         m = self._selected(step, "EXPORT", obj_filter=key)
         r = self.result.records

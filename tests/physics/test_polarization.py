@@ -380,3 +380,55 @@ TRACE
     if phi == 0.0:
         assert q / i == pytest.approx(dop, abs=2e-4) and abs(u) / i < 1e-6
     assert ledger_gap(res) < 1e-12
+
+
+@pytest.mark.parametrize("what,message", [
+    ("scalar", "EXPORT det STOKES needs a polarized trace: put POLARIZATION before TRACE"),
+    ("no detector", "EXPORT det STOKES needs an object with a DETECTOR"),
+])
+def test_export_stokes_mistakes_are_clear_errors(tmp_path, capsys, what, message):
+    """A script's mistake gets its line and a message, exit 1 (a run-time failure), not a traceback."""
+    from irtlang.cli import main
+
+    text = bench(_det() if what == "scalar" else "SURFACE\n  PLANE Z 0 RECT 5 5\nOBJECT det\n  INTERFACE ABSORB\n")
+    if what == "scalar":
+        text = text.replace("POLARIZATION\n", "")
+    text += "EXPORT det 'det.npy' STOKES\n"
+    f = Path(tmp_path) / "s.inr"
+    f.write_text(text)
+    code = main(["run", str(f), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 1 and message in err and "Traceback" not in err, err
+    line = text.splitlines().index("EXPORT det 'det.npy' STOKES") + 1
+    assert f"s.inr:{line}:" in err
+
+
+def test_trace_camera_refuses_polarization(tmp_path, capsys):
+    """The camera-side estimator is scalar (docs/tracer.md, "Polarization"): TRACE CAMERA under POLARIZATION is a
+    run-time error at its line, before anything is traced."""
+    from irtlang.cli import main
+
+    text = """UNITS M
+WAVELENGTHS 550 NM
+POLARIZATION
+MODEL paint LAMBERTIAN 0.6
+SURFACE
+  SPHERE 0 0 1e5 100
+OBJECT ball
+  INTERFACE ABSORB
+  SCATTER MODEL paint
+SURFACE
+  PLANE Z 0 RECT 0.01 0.01
+OBJECT fpa
+  INTERFACE ABSORB
+  DETECTOR PIXELS 8
+EMITTING SPHERE 8.66e8 0 -4.999e8 1e6 RAYS 1
+FLUX TOTAL 1e18 W
+TRACE CAMERA fpa AIM ball
+"""
+    f = Path(tmp_path) / "cam.inr"
+    f.write_text(text)
+    code = main(["run", str(f), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 1 and "TRACE CAMERA does not trace polarization yet" in err and "Traceback" not in err, err
+    assert "cam.inr:17:" in err
