@@ -535,6 +535,8 @@ class Engine:
         if res.ledger is None:
             raise RuntimeFailure(step.span, "SPECTRUM OF: this ray file holds no ledger (written by an older irtlang)")
         o = names.index(key)
+        if step.params.get("stokes"):
+            return self._spectrum_stokes(step, o, interp)
         flux = res.ledger[o, 0]
         se = standard_error(flux, res.ledger_sq[o], res.n_traced)
         lines = ["wavelength_nm,flux_W,stderr_W"] + [f"{lam:.6g},{repr(float(f))},{repr(float(e))}"
@@ -547,6 +549,39 @@ class Engine:
         tot = float(flux.sum())
         interp.assign("SPECTRUM_FLUX", Quantity(tot, POWER), step.span)
         interp.assign("SPECTRUM_FLUX_SE", Quantity(float(standard_error(tot, res.ledger_sq[o].sum(), res.n_traced)),
+                                                   POWER), step.span)
+        if step.params["file"]:
+            self._write_text(step.params["file"], "\n".join(lines) + "\n", "spectrum")
+
+    def _spectrum_stokes(self, step, o, interp):
+        """SPECTRUM OF obj ['file'] STOKES: I, Q, U, V per line from the object's DETECTOR, which must have one
+        pixel and no FILTERS: its tallies are then sums over whole source rays, so the standard errors are exact
+        (a many-pixel image's total would need the covariances between its pixels).  QE applies, as to images."""
+        res = self.result
+        name = res.packed.object_names[o]
+        st = getattr(res, "stokes", None)
+        if not st:
+            raise RuntimeFailure(step.span, f"SPECTRUM OF {name} STOKES needs a polarized trace: put POLARIZATION "
+                                 "before TRACE")
+        if name not in st:
+            raise RuntimeFailure(step.span, f"SPECTRUM OF {name} STOKES needs a DETECTOR on {name} (DETECTOR PIXELS 1)")
+        s1, s2 = st[name]
+        d = res.packed.detector_names.index(name)
+        filt = res.packed.d_filters[d] if getattr(res.packed, "d_filters", None) else None
+        if s1.shape[2] * s1.shape[3] != 1 or filt is not None:
+            raise RuntimeFailure(step.span, f"SPECTRUM OF {name} STOKES needs a one-pixel DETECTOR without FILTERS "
+                                 f"(DETECTOR PIXELS 1; {name} has {s1.shape[3]} x {s1.shape[2]}"
+                                 + (" and FILTERS" if filt is not None else "") + "): EXPORT ... STOKES writes images")
+        x = s1[:, :, 0, 0]
+        e = np.asarray(standard_error(x, s2[:, :, 0, 0], res.n_traced))
+        head = "wavelength_nm,I_W,Q_W,U_W,V_W,stderr_I_W,stderr_Q_W,stderr_U_W,stderr_V_W"
+        lines = [head] + [",".join([f"{lam:.6g}"] + [repr(float(v)) for v in x[:, k]] + [repr(float(v)) for v in e[:, k]])
+                          for k, lam in enumerate(res.packed.lines_nm)]
+        shown = lines[:1] + lines[1:8] + (["..."] if len(lines) > 9 else []) + (lines[-1:] if len(lines) > 8 else [])
+        self.out(f"SPECTRUM OF {name} STOKES:\n  " + "\n  ".join(shown))
+        tot = float(x[0].sum())       # a ray carries one line: the lines' squares add up to the total's
+        interp.assign("SPECTRUM_FLUX", Quantity(tot, POWER), step.span)
+        interp.assign("SPECTRUM_FLUX_SE", Quantity(float(standard_error(tot, s2[0, :, 0, 0].sum(), res.n_traced)),
                                                    POWER), step.span)
         if step.params["file"]:
             self._write_text(step.params["file"], "\n".join(lines) + "\n", "spectrum")

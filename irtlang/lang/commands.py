@@ -326,7 +326,8 @@ def _coating(it, b, st):
 
 
 @command("SPECTRUM", Form((Variants("kind", {
-    "OF": Form((Ref("object", "object"), Path("file", optional=True))),
+    "OF": Form((Ref("object", "object"), Path("file", optional=True)), (
+        Clause("STOKES", (), doc="a polarized trace's I, Q, U, V per line from the object's one-pixel DETECTOR"),)),
 }, default=Form((Name("name"), Variants("source", {
     "SOLAR": Form((), (Clause("TSI", (V("tsi", (-2, 0, 0, 1, 0), check=positive),), doc="total solar irradiance at 1 AU"),)),
     "TABLE": Form((Path("file"),)),
@@ -337,7 +338,7 @@ def _spectrum(it, b, st):
     if b.variants["kind"] == "OF":
         it.assign("SPECTRUM_FLUX", Quantity(0.0, POWER), b.span)      # set by the run; 0 under irt check
         it.assign("SPECTRUM_FLUX_SE", Quantity(0.0, POWER), b.span)
-        it.step("SPECTRUM_OF", {"object": b["object"], "file": b.get("file")}, b.span)
+        it.step("SPECTRUM_OF", {"object": b["object"], "file": b.get("file"), "stokes": "stokes" in b}, b.span)
         return
     from ..io.spectra import make_spectrum
 

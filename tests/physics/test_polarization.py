@@ -432,3 +432,42 @@ TRACE CAMERA fpa AIM ball
     err = capsys.readouterr().err
     assert code == 1 and "TRACE CAMERA does not trace polarization yet" in err and "Traceback" not in err, err
     assert "cam.inr:17:" in err
+
+
+def test_spectrum_of_stokes(tmp_path, capsys):
+    """SPECTRUM OF obj 'f.csv' STOKES from a one-pixel detector behind two polarizers (0 and 30 deg), three lines:
+    every line's I is cos^2(30 deg)/2 of what the line emitted (the ledger's EMITTED row), Q = I cos 60 deg,
+    U = -I sin 60 deg (module docstring), V = 0; a line's rays all carry the same state, so its Q, U standard
+    errors are exactly cos 60 and sin 60 times I's.  A many-pixel detector is refused (its total's error would
+    need the pixels' covariances)."""
+    from irtlang.cli import main
+
+    els = """SURFACE
+  PLANE Z 20 RECT 5 5
+OBJECT p1
+  INTERFACE POLARIZER 0
+SURFACE
+  PLANE Z 10 RECT 5 5
+OBJECT p2
+  INTERFACE POLARIZER 30
+""" + _det()
+    text = bench(els, n=3000).replace("WAVELENGTHS 550 NM", "WAVELENGTHS 450 550 650 NM") + \
+        "SPECTRUM OF det 'det.csv' STOKES\n"
+    f = Path(tmp_path) / "s.inr"
+    f.write_text(text)
+    assert main(["run", str(f), "--out", str(tmp_path / "out")]) == 0
+    rows = (tmp_path / "out" / "det.csv").read_text().splitlines()
+    assert rows[0] == "wavelength_nm,I_W,Q_W,U_W,V_W,stderr_I_W,stderr_Q_W,stderr_U_W,stderr_V_W"
+    res = trace_text(tmp_path, text, records=False)
+    emitted = res.ledger[-4, 0]
+    c, s = math.cos(math.radians(60)), math.sin(math.radians(60))
+    for k, r in enumerate(rows[1:]):
+        lam, i, q, u, v, si, sq, su, sv = (float(x) for x in r.split(","))
+        assert lam == [450, 550, 650][k]
+        assert i == pytest.approx(0.375 * emitted[k], rel=1e-12)
+        assert (q, u, v) == pytest.approx((c * i, -s * i, 0.0), rel=1e-12, abs=1e-15)
+        assert si > 0 and (sq, su, sv) == pytest.approx((c * si, s * si, 0.0), rel=1e-9, abs=1e-15)
+    capsys.readouterr()
+    f.write_text(text.replace("DETECTOR PIXELS 1", "DETECTOR PIXELS 4"))
+    assert main(["run", str(f), "--out", str(tmp_path / "out2")]) == 1
+    assert "needs a one-pixel DETECTOR without FILTERS" in capsys.readouterr().err
