@@ -38,7 +38,6 @@ OMEGA = math.pi * R_EYE ** 2 / D ** 2
 N_RAYS = 2_000_000
 
 
-
 # ------------------------------------------------------------------------------------------------ the tables
 def cds_table(stokes: str, where: str) -> dict:
     """{(albedo, mu0, mu): [value at phi = 0, 30, ..., 180]} from one of the table files."""
