@@ -198,12 +198,9 @@ def det_stokes(res, name: str = "det"):
     return s1[:, 0, 0, 0]
 
 
-@pytest.mark.parametrize("theta", [0.0, 30.0, 60.0, 90.0])
-def test_malus_law(tmp_path, theta):
-    """Unpolarized 1 W through a polarizer along x, then one at theta: I = cos^2(theta) / 2, exactly (ideal
-    polarizers weight the ray, no random choice); the light leaves along the second axis: Q = I cos 2 theta and
-    U = -I sin 2 theta in the detector's frame (e1 = x, e2 = d x x = -y for light going down)."""
-    els = f"""SURFACE
+def two_polarizers(theta: float) -> str:
+    """Polarizers along x (z = 20 mm) and at theta (z = 10 mm) above a one-pixel detector."""
+    return f"""SURFACE
   PLANE Z 20 RECT 5 5
 OBJECT p1
   INTERFACE POLARIZER 0
@@ -212,7 +209,14 @@ SURFACE
 OBJECT p2
   INTERFACE POLARIZER {theta!r}
 """ + _det()
-    res = trace_text(tmp_path, bench(els), records=False)
+
+
+@pytest.mark.parametrize("theta", [0.0, 30.0, 60.0, 90.0])
+def test_malus_law(tmp_path, theta):
+    """Unpolarized 1 W through a polarizer along x, then one at theta: I = cos^2(theta) / 2, exactly (ideal
+    polarizers weight the ray, no random choice); the light leaves along the second axis: Q = I cos 2 theta and
+    U = -I sin 2 theta in the detector's frame (e1 = x, e2 = d x x = -y for light going down)."""
+    res = trace_text(tmp_path, bench(two_polarizers(theta)), records=False)
     i, q, u, v = det_stokes(res)
     t = math.radians(theta)
     want = 0.5 * math.cos(t) ** 2
@@ -441,16 +445,7 @@ def test_spectrum_of_stokes(tmp_path, capsys):
     need the pixels' covariances)."""
     from irtlang.cli import main
 
-    els = """SURFACE
-  PLANE Z 20 RECT 5 5
-OBJECT p1
-  INTERFACE POLARIZER 0
-SURFACE
-  PLANE Z 10 RECT 5 5
-OBJECT p2
-  INTERFACE POLARIZER 30
-""" + _det()
-    text = bench(els, n=3000).replace("WAVELENGTHS 550 NM", "WAVELENGTHS 450 550 650 NM") + \
+    text = bench(two_polarizers(30.0), n=3000).replace("WAVELENGTHS 550 NM", "WAVELENGTHS 450 550 650 NM") + \
         "SPECTRUM OF det 'det.csv' STOKES\n"
     f = Path(tmp_path) / "s.inr"
     f.write_text(text)
