@@ -1,10 +1,15 @@
-"""The polarization figures of docs/tracer.md.  Run: ``python docs/gen_polarization_figure.py [cds] [planet]``.
+"""The polarization figures of docs/tracer.md and docs/earth.md.  Run:
+``python docs/gen_polarization_figure.py [cds] [planet] [earth]``.
 
 * docs/img/polarization_cds.png: irtlang's polarized (and scalar) trace of a Rayleigh layer against the
   Coulson-Dave-Sekera tables (Natraj et al. 2009); the scenes are tests/physics/test_polarization.py's (about a
   minute once the kernels are compiled);
 * docs/img/polarization_planet.png: examples_scripts/polarized_planet.inr with 16 million rays (a few minutes):
-  the disk's I, degree and angle of linear polarization."""
+  the disk's I, degree and angle of linear polarization;
+* docs/img/earth_polarization.png: one frame of examples_scripts/earth.inr with ``--set polarization=1`` (the
+  forward trace's Stokes maps on a 128 x 128 grid over the focal plane): I at 450 nm, the degree of linear
+  polarization at 450 and 650 nm and its angle, pixels whose degree has a standard error above 0.05 left blank
+  (about 10 minutes)."""
 from __future__ import annotations
 
 import math
@@ -101,9 +106,70 @@ def planet(out: Path = ROOT / "docs" / "img" / "polarization_planet.png", rays: 
     print(out, f"disk degree {tot:.4f}, U/I {u.sum() / i.sum():+.4f}")
 
 
+def earth(out: Path = ROOT / "docs" / "img" / "earth_polarization.png", sun_rays: int = 6400) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from irtlang.cli import main as irt
+
+    d = Path(tempfile.mkdtemp())
+    assert irt(["run", str(ROOT / "examples_scripts" / "earth.inr"), "--out", str(d), "--quiet",
+                "--set", "hours=1", "--set", "polarization=1", "--set", f"sun_rays={sun_rays}",
+                "--set", "window=16", "--set", "spectral_samples=1", "--set", "save_rays=0"]) == 0
+    tag = next((d / "polarization").glob("*_450nm_I.npy")).name[:-len("_450nm_I.npy")]
+
+    def load(band):
+        s = {k: np.load(d / "polarization" / f"{tag}_{band}nm_{k}.npy")[0] for k in "IQU"}
+        e = {k: np.load(d / "polarization" / f"{tag}_{band}nm_{k}.stderr.npy")[0] for k in "IQU"}
+        return s, e
+
+    maps = {}
+    for band in (450, 650):
+        s, e = load(band)
+        i, q, u = s["I"], s["Q"], s["U"]
+        lit = i > 0.03 * i.max()
+        ii = np.where(lit, i, 1.0)
+        dolp = np.hypot(q, u) / ii
+        # the degree's standard error by the delta method, I, Q and U taken as independent (an approximation:
+        # they come from the same rays); used only to blank the noisy pixels of the picture
+        p = np.maximum(dolp, 1e-12)
+        sd = np.sqrt(((q * e["Q"]) ** 2 + (u * e["U"]) ** 2) / (ii * ii * p) ** 2 + (dolp * e["I"] / ii) ** 2)
+        ok = lit & (sd < 0.05)
+        maps[band] = dict(i=i, lit=lit, ok=ok, dolp=np.where(ok, dolp, np.nan),
+                          aolp=np.where(ok, np.degrees(0.5 * np.arctan2(u, q)), np.nan),
+                          disk=math.hypot(q[lit].sum(), u[lit].sum()) / i[lit].sum(), sd=np.nanmedian(sd[lit]))
+    rows, cols = np.nonzero(maps[450]["lit"])
+    r0, r1, c0, c1 = rows.min() - 3, rows.max() + 4, cols.min() - 3, cols.max() + 4
+    crop = (slice(max(r0, 0), r1), slice(max(c0, 0), c1))
+    fig, axs = plt.subplots(1, 4, figsize=(16, 4.3), dpi=110)
+    pics = ((maps[450]["i"] / maps[450]["i"].max(), "I at 450 nm (relative)", dict(cmap="gray", vmin=0, vmax=1)),
+            (maps[450]["dolp"], f"degree of linear polarization, 450 nm (disk {maps[450]['disk']:.3f})",
+             dict(cmap="viridis", vmin=0, vmax=0.6)),
+            (maps[650]["dolp"], f"degree of linear polarization, 650 nm (disk {maps[650]['disk']:.3f})",
+             dict(cmap="viridis", vmin=0, vmax=0.6)),
+            (maps[450]["aolp"], "angle of polarization, 450 nm (deg from the detector's x)",
+             dict(cmap="twilight", vmin=-90, vmax=90)))
+    for ax, (a, title, kw) in zip(axs, pics):
+        im = ax.imshow(a[crop], origin="lower", interpolation="nearest", **kw)
+        ax.set_title(title, fontsize=9)
+        ax.set_xticks([])
+        ax.set_yticks([])
+        fig.colorbar(im, ax=ax, shrink=0.85)
+    fig.suptitle(f"examples_scripts/earth.inr --set polarization=1, {tag} UTC: the forward trace's Stokes maps "
+                 f"(128 x 128 over the focal plane, {sun_rays} Sun rays per line; blank: degree's standard error "
+                 f"> 0.05)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(out)
+    print(out, {b: (round(m["disk"], 4), round(float(m["sd"]), 4)) for b, m in maps.items()})
+
+
 if __name__ == "__main__":
     which = sys.argv[1:] or ["cds", "planet"]
     if "cds" in which:
         cds()
     if "planet" in which:
         planet()
+    if "earth" in which:
+        earth()

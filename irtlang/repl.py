@@ -392,6 +392,8 @@ class ReplSession:
         for c in self.interp.state.coatings.values():
             if c.kind == "fresnel":
                 out.append(f"{c.name}  FRESNEL")
+            elif c.kind == "metal":
+                out.append(f"{c.name}  METAL {self._nums(c.reflect)}  EXTINCTION {self._nums(c.transmit)}")
             else:
                 out.append(f"{c.name}  REFLECT {self._nums(c.reflect)}  TRANSMIT {self._nums(c.transmit)}")
         return out

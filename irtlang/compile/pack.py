@@ -10,6 +10,10 @@ Kind codes (kept in one place, used by the kernels):
   apertures AP_NONE AP_RECT AP_DISK AP_ANNULUS AP_ELLIPSE
   interface IF_ABSORB IF_REFLECT IF_SPLIT (R/T table) IF_FRESNEL (R and T from the two media) IF_POLARIZER
             IF_RETARDER (ideal elements of a polarized trace; o_pol: axis angle, retardance in radians)
+            IF_METAL (a COATING ... METAL: Fresnel reflection with the complex index n + i k held in coat_R, coat_T)
+  coatings coat_R, coat_T (3, C, L): [0] R and T, (Rs + Rp)/2 and (Ts + Tp)/2 (a METAL: n and k); [1] (Rs - Rp)/2 and
+            (Ts - Tp)/2; [2] the retardances delta_r, delta_t (radians) of a COATING ... POLARIZED ([1], [2] zero
+            for the others: Rs = Rp, no retardance)
   sources   SRC_GRID_RECT SRC_GRID_DISK SRC_SPHERE SRC_DISK SRC_POINT
   direction DIR_COLLIMATED DIR_DIVERGE DIR_CONVERGE DIR_FIELD DIR_LAMBERT
 """
@@ -29,7 +33,7 @@ SURFACE_CODES = {"PLANE": SK_PLANE, "CONIC": SK_CONIC, "SPHERE": SK_SPHERE, "ELL
                  "TUBE": SK_TUBE, "MESH": SK_MESH}
 AP_NONE, AP_RECT, AP_DISK, AP_ANNULUS, AP_ELLIPSE = range(5)
 APERTURE_CODES = {None: AP_NONE, "RECT": AP_RECT, "DISK": AP_DISK, "ANNULUS": AP_ANNULUS, "ELLIPSE": AP_ELLIPSE}
-IF_ABSORB, IF_REFLECT, IF_SPLIT, IF_FRESNEL, IF_POLARIZER, IF_RETARDER = range(6)
+IF_ABSORB, IF_REFLECT, IF_SPLIT, IF_FRESNEL, IF_POLARIZER, IF_RETARDER, IF_METAL = range(7)
 SRC_GRID_RECT, SRC_GRID_DISK, SRC_SPHERE, SRC_DISK, SRC_POINT = range(5)
 DIR_COLLIMATED, DIR_DIVERGE, DIR_CONVERGE, DIR_FIELD, DIR_LAMBERT = range(5)
 N_TERMINAL_ROWS = 4   # EMITTED, ESCAPED, HALTED, LOST (after the objects and the absorbing media)
@@ -118,7 +122,7 @@ class Packed:
     med_depol: np.ndarray           # (M,)
     med_tgt: np.ndarray             # (M,) TOWARD object, -1
     med_nee: np.ndarray             # (M,) RAYS toward the target per event
-    coat_R: np.ndarray              # (C, L)
+    coat_R: np.ndarray              # (3, C, L): the module docstring's layout
     coat_T: np.ndarray
     # scattering: an object's SCATTER specs sc_first[o] .. + sc_count[o], tried in order
     o_sc_first: np.ndarray
@@ -409,12 +413,14 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
     # media and coatings
     med_n = np.array([np.broadcast_to(np.asarray(scene.media[k].index, float), (L,)) for k in med_keys])
     med_alpha = np.array([np.broadcast_to(np.asarray(scene.media[k].absorb, float), (L,)) for k in med_keys])
-    coat_R = np.zeros((max(1, len(coat_keys)), L))
-    coat_T = np.zeros((max(1, len(coat_keys)), L))
+    coat_R = np.zeros((3, max(1, len(coat_keys)), L))
+    coat_T = np.zeros((3, max(1, len(coat_keys)), L))
     for k, i in coat_index.items():
         c = scene.coatings[k]
-        if c.kind == "rt":
-            coat_R[i], coat_T[i] = c.reflect, c.transmit
+        if c.kind in ("rt", "metal"):      # a metal's n and k ride in the R and T rows (IF_METAL)
+            coat_R[0, i], coat_T[0, i] = c.reflect, c.transmit
+        if c.polarized is not None:        # COATING ... POLARIZED: (Rs - Rp)/2, (Ts - Tp)/2, delta_r, delta_t
+            coat_R[1, i], coat_T[1, i], coat_R[2, i], coat_T[2, i] = c.polarized
 
     # objects
     nO = len(obj_keys)
@@ -523,10 +529,13 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
             used_media.update((itf.back, itf.front))
             if itf.kind == "transmit" or scene.coatings[itf.coating].kind == "fresnel":
                 o_itf[i] = IF_FRESNEL
+            elif scene.coatings[itf.coating].kind == "metal":
+                o_itf[i] = IF_METAL         # reflects only: nothing to refract
+                o_coat[i] = coat_index[itf.coating]
             else:
                 o_itf[i] = IF_SPLIT
                 o_coat[i] = coat_index[itf.coating]
-            if np.any(coat_T[o_coat[i]] > 0) if o_itf[i] == IF_SPLIT else True:
+            if np.any(coat_T[0, o_coat[i]] > 0) if o_itf[i] == IF_SPLIT else o_itf[i] == IF_FRESNEL:
                 feats.refract = True
         if obj.detector is not None:
             o_det[i] = len(det_rows)

@@ -11,7 +11,9 @@ the satellite-level sensor, a Lambertian ground), runs the executable and parses
   to ground, air mass 1/mu_s), upward (ground to sensor, 1/mu_v) and total (the whole path at once, air mass
   1/mu_s + 1/mu_v: 6S's band model is not multiplicative, so total is not downward x upward) transmittances;
 * ``apparent_reflectance``: the top-of-atmosphere reflectance pi L / (mu_s E0);
-* the Rayleigh optical depth.
+* the Rayleigh optical depth;
+* ``rayleigh_I``, ``rayleigh_Q``, ``rayleigh_U``: the polarized (vector) atmospheric reflectance of the Rayleigh
+  atmosphere alone (over a black ground), Q and U in the meridian plane's frame.
 
 6S's atmospheres (``ATMOSPHERES``): 1 tropical, 2 mid-latitude summer, 3 mid-latitude winter, 4 sub-arctic
 summer, 5 sub-arctic winter: the AFGL 1986 profiles (Anderson et al. 1986), the same five irtlang takes from
@@ -79,6 +81,11 @@ def parse_output(text: str) -> dict:
     out["apparent_reflectance"] = float(m.group(1)) if m else float("nan")
     m = re.search(r"optical depth total:\s*" + _NUM, text)
     out["rayleigh_tau"] = float(m.group(1)) if m else float("nan")
+    # the vector code's atmospheric (path) reflectance, Rayleigh column: I, Q, U in pi L / (mu_s E0), Q and U
+    # referred to the meridian plane (6S's sign: Q < 0 for an electric vector normal to it)
+    for comp in "IQU":
+        m = re.search(r"reflectance " + comp + r"\s*:\s*" + _NUM, text)
+        out[f"rayleigh_{comp}"] = float(m.group(1)) if m else float("nan")
     return out
 
 

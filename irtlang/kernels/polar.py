@@ -14,7 +14,8 @@ A contract in a few lines (docs/tracer.md, "Polarization"):
 * Fresnel amplitudes in the frame e1 = s (normal to the plane of incidence), e2 = d x s before and after the
   interface: Born & Wolf's rs = (n1 cos i - n2 cos t) / (n1 cos i + n2 cos t), rp = (n2 cos i - n1 cos t) /
   (n2 cos i + n1 cos t); under total internal reflection cos t = +i sqrt(eta^2 sin^2 i - 1) (the evanescent wave
-  decays), so |rs| = |rp| = 1 and conj(rs) rp = exp(i delta).
+  decays), so |rs| = |rp| = 1 and conj(rs) rp = exp(i delta).  A metal (``COATING ... METAL n EXTINCTION k``) has the
+  complex index N = n + i k in the same formulas (``metal_mueller``): diattenuation and retardance on reflection.
 * Rayleigh scattering (with depolarization factor rho) in the frame e1 = the normal to the scattering plane,
   per steradian over 4 pi: P11 = D 3/4 (1 + c^2) + (1 - D), P12 = D 3/4 (1 - c^2), P22 = D 3/4 (1 + c^2),
   P33 = D 3/2 c, P44 = D D' 3/2 c, D = (1 - rho)/(1 + rho/2), D' = (1 - 2 rho)/(1 - rho) (Hansen & Travis 1974,
@@ -22,6 +23,7 @@ A contract in a few lines (docs/tracer.md, "Polarization"):
   the unpolarized tracer uses.
 All functions are pure, inlined into the trace kernel when it is specialized for POLARIZATION.
 """
+import cmath
 import math
 
 import numba
@@ -110,6 +112,26 @@ def fresnel_mueller(cos_i, n1, n2):
     Ts = et * ts * ts
     Tp = et * tp * tp
     return 0.5 * (Rs + Rp), 0.5 * (Rs - Rp), rs * rp, 0.0, 0.5 * (Ts + Tp), 0.5 * (Ts - Tp), et * ts * tp
+
+
+@numba.njit(cache=True, inline="always")
+def metal_mueller(cos_i, n1, n, k):
+    """Reflection by an absorbing medium of complex index N = n + i k (a metal; k >= 0, the wave decays as
+    exp(-k w z / c) with the field's exp(i(k.r - wt))) from a medium of real index n1, as Mueller coefficients
+    in the s frame: (Ar, Br, xr, yr), nothing transmitted (it is absorbed within a skin depth).  Born & Wolf's
+    rs = (n1 c - W) / (n1 c + W), rp = (N^2 c - n1 W) / (N^2 c + n1 W) with W = N cos t = sqrt(N^2 - n1^2 s^2),
+    the root with Im W >= 0; at normal incidence rp = -rs, as for the ideal mirror (Jones diag(r, -r))."""
+    c = min(abs(cos_i), 1.0)
+    sin2 = (1.0 - c) * (1.0 + c)
+    N2 = complex(n * n - k * k, 2.0 * n * k)
+    W = cmath.sqrt(N2 - n1 * n1 * sin2)      # Im >= 0: the principal root, as Im N^2 = 2 n k >= 0
+    a = n1 * c
+    rs = (a - W) / (a + W)
+    rp = (N2 * c - n1 * W) / (N2 * c + n1 * W)
+    Rs = rs.real * rs.real + rs.imag * rs.imag
+    Rp = rp.real * rp.real + rp.imag * rp.imag
+    z = rs.conjugate() * rp
+    return 0.5 * (Rs + Rp), 0.5 * (Rs - Rp), z.real, z.imag
 
 
 @numba.njit(cache=True, inline="always")

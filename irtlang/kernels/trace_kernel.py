@@ -35,8 +35,8 @@ from .bvh import hit_mesh
 from .geometry import (conic_normal, conic_normal_plain, hit_conic_plain, drop_leaving_root, two_prod, ellipsoid_normal, hit_conic, hit_ellipsoid, hit_plane, hit_sphere, hit_tube,
                        in_annulus, in_disk, in_ellipse, in_rect, sphere_normal, tube_normal)
 from .optics import fresnel_unpolarized, refract
-from .polar import (azimuth_angle, diattenuate, frame, fresnel_mueller, perpendicular, rayleigh_mueller, rotate,
-                    scatter_stokes)
+from .polar import (azimuth_angle, diattenuate, frame, fresnel_mueller, metal_mueller, perpendicular, rayleigh_mueller,
+                    rotate, scatter_stokes)
 from .rng import uniform2
 from .sampling import cosine_hemisphere, lambert_cone, onb, uniform_cone, uniform_disk, uniform_sphere
 
@@ -69,7 +69,7 @@ C_INC, C_REF, C_TRA, C_SCA, C_ABS = 0, 1, 2, 3, 4
 # record flags
 FL_SCATTERED, FL_TRANSMITTED, FL_REFLECTED, FL_HALTED, FL_ESCAPED, FL_LOST = 1, 2, 4, 8, 16, 32
 # interface kinds (irtlang.compile.pack IF_*)
-IF_ABSORB, IF_REFLECT, IF_SPLIT, IF_FRESNEL, IF_POLARIZER, IF_RETARDER = 0, 1, 2, 3, 4, 5
+IF_ABSORB, IF_REFLECT, IF_SPLIT, IF_FRESNEL, IF_POLARIZER, IF_RETARDER, IF_METAL = 0, 1, 2, 3, 4, 5, 6
 # event kinds in the history
 EV_R, EV_T, EV_S, EV_A = 1, 2, 3, 4
 EPS_SELF = 1e-9
@@ -1025,7 +1025,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                         dep_w[c, ndep] = wd * (dq if comp == 1 else (du if comp == 2 else stv))
                                     ndep += 1
                     # the interface: specular R and T, absorbed A
-                    Ar = Br = xr = yr = At = Bt = xt = 0.0
+                    Ar = Br = xr = yr = At = Bt = xt = yt = 0.0
                     if it == 0:
                         R = 0.0
                         T = 0.0
@@ -1033,8 +1033,10 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                         R = 1.0
                         T = 0.0
                     elif it == 2:
-                        R = coat_R[o_coat[o], line]
-                        T = coat_T[o_coat[o], line]
+                        cc = o_coat[o]
+                        R = coat_R[0, cc, line]
+                        T = coat_T[0, cc, line]
+                        tir = False
                         if F_REFRACT and T > 0.0:
                             # a coated boundary between two media refracts; beyond the critical angle its
                             # transmitted share cannot leave and is reflected (total internal reflection)
@@ -1043,6 +1045,28 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                             if n1 > n2 and n1 * n1 * (1.0 - ci * ci) >= n2 * n2:
                                 R += T
                                 T = 0.0
+                                tir = True
+                        if F_POLAR:
+                            # Mueller coefficients from (Rs + Rp)/2, (Rs - Rp)/2 and the retardance beyond an
+                            # ideal mirror's (reflection: x + i y = -sqrt(Rs Rp) exp(i delta_r)) or a bare
+                            # transmission's (x + i y = sqrt(Ts Tp) exp(i delta_t)); compile/pack.py's layout
+                            Ar = R
+                            At = T
+                            if not tir:
+                                Br = coat_R[1, cc, line]
+                                Bt = coat_T[1, cc, line]
+                            a = math.sqrt(max(Ar * Ar - Br * Br, 0.0))
+                            xr = -a * math.cos(coat_R[2, cc, line])
+                            yr = -a * math.sin(coat_R[2, cc, line])
+                            a = math.sqrt(max(At * At - Bt * Bt, 0.0))
+                            xt = a * math.cos(coat_T[2, cc, line])
+                            yt = a * math.sin(coat_T[2, cc, line])
+                    elif it == IF_METAL:
+                        # a metal: Fresnel with the complex index n + i k (coat_R, coat_T hold n and k), no T
+                        Ar, Br, xr, yr = metal_mueller(abs(ci), med_n[m1, line], coat_R[0, o_coat[o], line],
+                                                       coat_T[0, o_coat[o], line])
+                        R = Ar
+                        T = 0.0
                     elif not F_POLAR or it == IF_FRESNEL:
                         if F_POLAR:
                             Ar, Br, xr, yr, At, Bt, xt = fresnel_mueller(abs(ci), med_n[m1, line], med_n[m2, line])
@@ -1057,7 +1081,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                         # into the frame of the interface: e1 = s (normal to the plane of incidence), or a
                         # polarizer's or retarder's axis (the object's local x turned by its angle about z)
                         ex, ey, ez = frame(dx, dy, dz, ex, ey, ez)
-                        if it >= IF_POLARIZER:
+                        if it == IF_POLARIZER or it == IF_RETARDER:
                             ca = math.cos(o_pol[o, 0])
                             sa = math.sin(o_pol[o, 0])
                             r = SF_R
@@ -1073,6 +1097,11 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                         if it == IF_FRESNEL:
                             R = Ar + Br * stq
                             T = 1.0 - R
+                        elif it == IF_METAL:
+                            R = Ar + Br * stq
+                        elif it == IF_SPLIT:
+                            R = Ar + Br * stq
+                            T = At + Bt * stq
                         elif it == IF_POLARIZER:
                             T = 0.5 * (1.0 + stq)
                     ev += 1
@@ -1253,11 +1282,11 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                             evkind = EV_R
                             excl = -1
                             if F_POLAR:
-                                if it == IF_FRESNEL:
+                                if it == IF_FRESNEL or it == IF_METAL or it == IF_SPLIT:
                                     _f, stq, stu, stv = diattenuate(stq, stu, stv, Ar, Br, xr, yr)
                                 else:
-                                    stu = -stu      # a mirror or coating without polarization data: Rs = Rp,
-                                    stv = -stv      # no retardance (Jones diag(r, -r) in the frames s, d x s)
+                                    stu = -stu      # INTERFACE REFLECT: a perfect mirror, Rs = Rp = 1, no
+                                    stv = -stv      # retardance (Jones diag(1, -1) in the frames s, d x s)
                         elif x_ < R + T:
                             led[c, o, C_TRA, line] += w * tot
                             led[c, o, C_ABS, line] += w * (1.0 - tot)
@@ -1267,6 +1296,8 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                             if F_POLAR:
                                 if it == IF_FRESNEL:
                                     _f, stq, stu, stv = diattenuate(stq, stu, stv, At, Bt, xt, 0.0)
+                                elif it == IF_SPLIT:
+                                    _f, stq, stu, stv = diattenuate(stq, stu, stv, At, Bt, xt, yt)
                                 elif it == IF_POLARIZER:
                                     stq = 1.0
                                     stu = 0.0

@@ -307,12 +307,41 @@ def _medium(it, b, st):
     "REFLECT": Form((PL("reflect", check=unit_interval),), (Clause("TRANSMIT", (PL("transmit", check=unit_interval),)),)),
     "TRANSMIT": Form((PL("transmit", check=unit_interval),), (Clause("REFLECT", (PL("reflect", check=unit_interval),)),)),
     "FRESNEL": Form(),
-}))), "materials", "a coating: R and T per line (A = 1 - R - T), or FRESNEL")
+    "METAL": Form((PL("n", check=positive),), (Clause("EXTINCTION", (PL("k", check=nonneg),), required=True,
+                                                       doc="the extinction coefficient k: the index is n + i k"),)),
+    "POLARIZED": Form((), (
+        Clause("RS", (PL("rs", check=unit_interval),), required=True, doc="reflectance for s (TE) light"),
+        Clause("RP", (PL("rp", check=unit_interval),), required=True, doc="reflectance for p (TM) light"),
+        Clause("TS", (PL("ts", check=unit_interval),), doc="transmittance for s light (default 0)"),
+        Clause("TP", (PL("tp", check=unit_interval),), doc="transmittance for p light (default 0)"),
+        Clause("RETARDANCE", (PL("delta_r", ANGLE),),
+               doc="on reflection: the phase of rp over rs beyond an ideal mirror's (default 0)"),
+        Clause("TRETARDANCE", (PL("delta_t", ANGLE),), doc="on transmission: the phase of tp over ts (default 0)"))),
+}))), "materials", "a coating: R and T per line (A = 1 - R - T), FRESNEL, METAL n EXTINCTION k (a complex index "
+                   "n + i k), or POLARIZED RS rs RP rp [TS ts TP tp] [RETARDANCE d] [TRETARDANCE d]")
 def _coating(it, b, st):
     name, kind = b["name"], b.variants["kind"]
     it.fail("coating", name)
     if kind == "FRESNEL":
         c = M.Coating(name, "fresnel", (), (), b.span)
+    elif kind == "METAL":
+        c = M.Coating(name, "metal", tuple(b["n"].values), tuple(b["k"].values), b.span)
+    elif kind == "POLARIZED":
+        n = it.n_lines()
+        per = {}
+        for k in ("rs", "rp", "ts", "tp", "delta_r", "delta_t"):
+            v = tuple(float(x) for x in b[k].values) if k in b else (0.0,)
+            per[k] = v * n if len(v) == 1 else v
+        for pol in "sp":
+            r, t = per["r" + pol], per["t" + pol]
+            for i in range(n):
+                if r[i] + t[i] > 1.0 + 1e-12:
+                    raise error(b.span, f"coating {name}: R{pol} + T{pol} = {r[i]:g} + {t[i]:g} = {r[i] + t[i]:g} > 1 "
+                                f"on line {i + 1} ({it.state.wavelengths_nm[i]:g} nm)", "R + T + A = 1 for each polarization")
+        half = lambda a, b_, sign: tuple(0.5 * (x + sign * y) for x, y in zip(a, b_))  # noqa: E731
+        c = M.Coating(name, "rt", half(per["rs"], per["rp"], 1), half(per["ts"], per["tp"], 1), b.span,
+                      polarized=(half(per["rs"], per["rp"], -1), half(per["ts"], per["tp"], -1), per["delta_r"],
+                                 per["delta_t"]))
     else:
         n = it.n_lines()
         r = b["reflect"].values if "reflect" in b else (0.0,) * n
@@ -551,11 +580,14 @@ def _rotate(it, b, st):
                            Clause("START", (V("x_min", LENGTH), V("x_max", LENGTH), V("y_min", LENGTH),
                                             V("y_max", LENGTH)),
                                   doc="bin by where the rays that arrive started (their source's own frame), over "
-                                      "this window: the image of an adjoint (detector-side) trace"))),
+                                      "this window: the image of an adjoint (detector-side) trace"),
+                           Clause("ON", (Ref("on", "object"),),
+                                  doc="the named object's detector instead of the current object's: a detector "
+                                      "changed between traces (its old grid is replaced)"))),
          "geometry", "the current object records an image of nx x ny pixels [QE per line] [FILTERS: one per filter] "
-                     "[START: of the rays' start points]")
+                     "[START: of the rays' start points] [ON obj: that object's instead]")
 def _detector(it, b, st):
-    obj = _current(it, b)
+    obj = it.state.objects[b["on"]] if "on" in b else _current(it, b)
     nx = b["nx"]
     ny = b.get("ny", nx)
     for lab, v in (("nx", nx), ("ny", ny)):

@@ -84,10 +84,11 @@ class Medium:
 @dataclass(frozen=True)
 class Coating:
     name: str
-    kind: str                   # rt | fresnel
-    reflect: tuple = ()
-    transmit: tuple = ()
+    kind: str                   # rt | fresnel | metal
+    reflect: tuple = ()         # metal: the real part n of the complex index, per line
+    transmit: tuple = ()        # metal: its imaginary part k (>= 0)
     span: Span = NO_SPAN
+    polarized: tuple | None = None   # POLARIZED: per line (Rs - Rp)/2, (Ts - Tp)/2, delta_r, delta_t (radians)
 
 
 @dataclass(frozen=True)

@@ -31,12 +31,18 @@ Sampling: the unscattered beam with probability e/(e + w (1 - e)), e = exp(-tau/
 e + w (1 - e)); otherwise a Rayleigh direction about -wi (cos Theta from the exact inverse of the cubic CDF),
 weight = f |cos_o| / pdf = w mu_v G (e + w (1 - e)) / (w (1 - e)) -- bounded, and nearly constant for thin
 slabs.  albedo() reads a table over cos_i (azimuthally averaged phase, graded Gauss-Legendre quadrature).
+
+Polarization (``mueller``): the one scattering of the slab acts by Rayleigh's Mueller matrix with the same
+depolarization factor (kernels/polar.rayleigh_mueller, Hansen & Travis 1974) at the angle Theta, in the frame of
+the scattering plane through -wi and wo; its P11 is P(Theta) above, so an unpolarized ray keeps the scalar
+weight.  The unscattered beam keeps its state (the kernel's delta branch).
 """
 import math
 
 import numba
 import numpy as np
 
+from ...kernels.polar import perpendicular, rayleigh_mueller, rotate, scatter_stokes
 from ...lang.spec import Clause, Form, PL, V, nonneg, unit_interval
 from ._common import (slab_scatter, INV_4PI, INV_PI, MU_MIN, slab_albedo_lines, slab_delta_prob, slab_direct, slab_geometry,
                       table_interp, table_mu_nodes)
@@ -168,3 +174,17 @@ def albedo(P, k, cos_i):
 def direct_transmission(P, k, cos_i):
     """exp(-tau / cos_i): the unscattered beam, along -wi."""
     return slab_direct(P[0, k], cos_i)
+
+
+@numba.njit(cache=True, fastmath=False)
+def mueller(P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz, q, u, v, ex, ey, ez):
+    """Polarized single scattering (the contract: plugins/bsdfs/_common.depolarize): Rayleigh's Mueller matrix
+    at cos Theta = -wi.wo in the scattering plane's frame e1 = (-wi) x wo / |.|; rho = 2 gamma / (1 + gamma)."""
+    g = P[2, k]
+    rho = 2.0 * g / (1.0 + g)
+    mu = -(wix * wox + wiy * woy + wiz * woz)
+    sx, sy, sz = perpendicular(-wix, -wiy, -wiz, wox, woy, woz, ex, ey, ez)
+    qs, us = rotate(-wix, -wiy, -wiz, ex, ey, ez, q, u, sx, sy, sz)
+    p11, p12, p22, p33, p44 = rayleigh_mueller(mu, rho)
+    i1, nq, nu, nv = scatter_stokes(qs, us, v, p11, p12, p22, p33, p44)
+    return i1 / p11, nq, nu, nv, sx, sy, sz
