@@ -106,7 +106,7 @@ def planet(out: Path = ROOT / "docs" / "img" / "polarization_planet.png", rays: 
     print(out, f"disk degree {tot:.4f}, U/I {u.sum() / i.sum():+.4f}")
 
 
-def earth(out: Path = ROOT / "docs" / "img" / "earth_polarization.png", sun_rays: int = 6400) -> None:
+def earth(out: Path = ROOT / "docs" / "img" / "earth_polarization.png", sun_rays: int = 12800) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -129,7 +129,7 @@ def earth(out: Path = ROOT / "docs" / "img" / "earth_polarization.png", sun_rays
     for band in (450, 650):
         s, e = load(band)
         i, q, u = s["I"], s["Q"], s["U"]
-        lit = i > 0.03 * i.max()
+        lit = i > 0.005 * i.max()
         ii = np.where(lit, i, 1.0)
         dolp = np.hypot(q, u) / ii
         # the degree's standard error by the delta method, I, Q and U taken as independent (an approximation:
@@ -140,15 +140,16 @@ def earth(out: Path = ROOT / "docs" / "img" / "earth_polarization.png", sun_rays
         maps[band] = dict(i=i, lit=lit, ok=ok, dolp=np.where(ok, dolp, np.nan),
                           aolp=np.where(ok, np.degrees(0.5 * np.arctan2(u, q)), np.nan),
                           disk=math.hypot(q[lit].sum(), u[lit].sum()) / i[lit].sum(), sd=np.nanmedian(sd[lit]))
-    rows, cols = np.nonzero(maps[450]["lit"])
+    rows, cols = np.nonzero(maps[450]["i"] > 0)
     r0, r1, c0, c1 = rows.min() - 3, rows.max() + 4, cols.min() - 3, cols.max() + 4
     crop = (slice(max(r0, 0), r1), slice(max(c0, 0), c1))
     fig, axs = plt.subplots(1, 4, figsize=(16, 4.3), dpi=110)
-    pics = ((maps[450]["i"] / maps[450]["i"].max(), "I at 450 nm (relative)", dict(cmap="gray", vmin=0, vmax=1)),
+    pics = ((np.sqrt(maps[450]["i"] / maps[450]["i"].max()), "sqrt of I at 450 nm (relative)",
+             dict(cmap="gray", vmin=0, vmax=1)),
             (maps[450]["dolp"], f"degree of linear polarization, 450 nm (disk {maps[450]['disk']:.3f})",
-             dict(cmap="viridis", vmin=0, vmax=0.6)),
+             dict(cmap="viridis", vmin=0, vmax=0.8)),
             (maps[650]["dolp"], f"degree of linear polarization, 650 nm (disk {maps[650]['disk']:.3f})",
-             dict(cmap="viridis", vmin=0, vmax=0.6)),
+             dict(cmap="viridis", vmin=0, vmax=0.8)),
             (maps[450]["aolp"], "angle of polarization, 450 nm (deg from the detector's x)",
              dict(cmap="twilight", vmin=-90, vmax=90)))
     for ax, (a, title, kw) in zip(axs, pics):

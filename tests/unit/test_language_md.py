@@ -701,6 +701,19 @@ def test_scatter_detector_and_current_object(base):
         assert any("no current object" in x.message for x in d), ender
 
 
+def test_detector_on_a_named_object(base):
+    """DETECTOR ... ON obj (an extension) replaces the named object's detector, after its block has closed and
+    between traces: the TRACE before the change keeps the old grid, the one after has the new one."""
+    src = "GRID RECT Z 50 -1 1 -1 1 10 1 RANDOM\nSOURCE DIRECTION 0 0 -1\n"
+    it = ok("SURFACE\n  PLANE Z 0 RECT 5 5\nOBJECT det\n  DETECTOR PIXELS 8\nSURFACE\n  PLANE Z 10 RECT 1 1\n"
+            f"OBJECT other\n{src}TRACE\nDETECTOR PIXELS 2 3 ON det\n{src}TRACE", base)
+    traces = [s for s in it.steps if s.kind == "TRACE"]
+    assert [(t.scene.objects["DET"].detector.nx, t.scene.objects["DET"].detector.ny) for t in traces] == [(8, 8), (2, 3)]
+    assert obj(it, "other").detector is None
+    d = errors("SURFACE\n  PLANE Z 0 RECT 5 5\nOBJECT det\nDETECTOR PIXELS 2 ON nothing", base)
+    assert any("undefined object 'nothing'" in x.message for x in d)
+
+
 def test_sources_and_flux(base):
     it = ok("SPECTRUM sun SOLAR\nSURFACE\n  SPHERE 0 0 1 AU 6371 km\nOBJECT earth\n"
             "GRID RECT Z -100 -10 10 -10 10 101 101\nSOURCE DIRECTION 0 0 1\n"
