@@ -1,5 +1,5 @@
 """The polarization figures of docs/tracer.md and docs/earth.md.  Run:
-``python docs/gen_polarization_figure.py [cds] [planet] [earth]``.
+``python docs/gen_polarization_figure.py [cds] [planet] [earth [--from DIR]]``.
 
 * docs/img/polarization_cds.png: irtlang's polarized (and scalar) trace of a Rayleigh layer against the
   Coulson-Dave-Sekera tables (Natraj et al. 2009); the scenes are tests/physics/test_polarization.py's (about a
@@ -9,7 +9,8 @@
 * docs/img/earth_polarization.png: one frame of examples_scripts/earth.inr with ``--set polarization=1`` (the
   forward trace's Stokes maps on a 128 x 128 grid over the focal plane): I at 450 nm, the degree of linear
   polarization at 450 and 650 nm and its angle, pixels whose degree has a standard error above 0.05 left blank
-  (about 10 minutes)."""
+  (about 10 minutes); and docs/img/earth_polarization_spectrum.png, the disk's degree of linear polarization per
+  line from the entrance pupil's Stokes spectrum."""
 from __future__ import annotations
 
 import math
@@ -106,7 +107,9 @@ def planet(out: Path = ROOT / "docs" / "img" / "polarization_planet.png", rays: 
     print(out, f"disk degree {tot:.4f}, U/I {u.sum() / i.sum():+.4f}")
 
 
-def earth(out: Path = ROOT / "docs" / "img" / "earth_polarization.png", sun_rays: int = 12800) -> None:
+def earth(out: Path = ROOT / "docs" / "img" / "earth_polarization.png", sun_rays: int = 12800,
+          folder: str | None = None) -> None:
+    """folder: the output folder of such a run already made (only the picture is drawn again)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -114,10 +117,11 @@ def earth(out: Path = ROOT / "docs" / "img" / "earth_polarization.png", sun_rays
 
     from irtlang.cli import main as irt
 
-    d = Path(tempfile.mkdtemp())
-    assert irt(["run", str(ROOT / "examples_scripts" / "earth.inr"), "--out", str(d), "--quiet",
-                "--set", "hours=1", "--set", "polarization=1", "--set", f"sun_rays={sun_rays}",
-                "--set", "window=16", "--set", "spectral_samples=1", "--set", "save_rays=0"]) == 0
+    d = Path(folder) if folder else Path(tempfile.mkdtemp())
+    if not folder:
+        assert irt(["run", str(ROOT / "examples_scripts" / "earth.inr"), "--out", str(d), "--quiet",
+                    "--set", "hours=1", "--set", "polarization=1", "--set", f"sun_rays={sun_rays}",
+                    "--set", "window=16", "--set", "spectral_samples=1", "--set", "save_rays=0"]) == 0
     tag = next((d / "polarization").glob("*_450nm_I.npy")).name[:-len("_450nm_I.npy")]
 
     def load(band):
@@ -129,41 +133,73 @@ def earth(out: Path = ROOT / "docs" / "img" / "earth_polarization.png", sun_rays
     for band in (450, 650):
         s, e = load(band)
         i, q, u = s["I"], s["Q"], s["U"]
-        lit = i > 0.005 * i.max()
+        lit = i > 0.0
         ii = np.where(lit, i, 1.0)
         dolp = np.hypot(q, u) / ii
         # the degree's standard error by the delta method, I, Q and U taken as independent (an approximation:
         # they come from the same rays); used only to blank the noisy pixels of the picture
         p = np.maximum(dolp, 1e-12)
         sd = np.sqrt(((q * e["Q"]) ** 2 + (u * e["U"]) ** 2) / (ii * ii * p) ** 2 + (dolp * e["I"] / ii) ** 2)
-        ok = lit & (sd < 0.05)
+        ok = lit & (sd < 0.06)
         maps[band] = dict(i=i, lit=lit, ok=ok, dolp=np.where(ok, dolp, np.nan),
                           aolp=np.where(ok, np.degrees(0.5 * np.arctan2(u, q)), np.nan),
                           disk=math.hypot(q[lit].sum(), u[lit].sum()) / i[lit].sum(), sd=np.nanmedian(sd[lit]))
     rows, cols = np.nonzero(maps[450]["i"] > 0)
     r0, r1, c0, c1 = rows.min() - 3, rows.max() + 4, cols.min() - 3, cols.max() + 4
     crop = (slice(max(r0, 0), r1), slice(max(c0, 0), c1))
-    fig, axs = plt.subplots(1, 4, figsize=(16, 4.3), dpi=110)
-    pics = ((np.sqrt(maps[450]["i"] / maps[450]["i"].max()), "sqrt of I at 450 nm (relative)",
+    fig, axs = plt.subplots(1, 3, figsize=(14, 4.6), dpi=110)
+    pics = ((np.sqrt(maps[450]["i"] / maps[450]["i"].max()), "sqrt of I at 450 nm; E's direction (length: 6 px x degree)",
              dict(cmap="gray", vmin=0, vmax=1)),
             (maps[450]["dolp"], f"degree of linear polarization, 450 nm (disk {maps[450]['disk']:.3f})",
-             dict(cmap="viridis", vmin=0, vmax=0.8)),
+             dict(cmap="viridis", vmin=0, vmax=0.7)),
             (maps[650]["dolp"], f"degree of linear polarization, 650 nm (disk {maps[650]['disk']:.3f})",
-             dict(cmap="viridis", vmin=0, vmax=0.8)),
-            (maps[450]["aolp"], "angle of polarization, 450 nm (deg from the detector's x)",
-             dict(cmap="twilight", vmin=-90, vmax=90)))
+             dict(cmap="viridis", vmin=0, vmax=0.7)))
     for ax, (a, title, kw) in zip(axs, pics):
         im = ax.imshow(a[crop], origin="lower", interpolation="nearest", **kw)
         ax.set_title(title, fontsize=9)
         ax.set_xticks([])
         ax.set_yticks([])
         fig.colorbar(im, ax=ax, shrink=0.85)
-    fig.suptitle(f"examples_scripts/earth.inr --set polarization=1, {tag} UTC: the forward trace's Stokes maps "
-                 f"(128 x 128 over the focal plane, {sun_rays} Sun rays per line; blank: degree's standard error "
-                 f"> 0.05)", fontsize=10)
+    # the electric vector's direction (the angle from the detector's x) scaled by the degree, where it is known
+    m = maps[450]
+    yy, xx = np.nonzero(m["ok"][crop])
+    ang = np.radians(m["aolp"][crop][yy, xx])
+    ln = 6.0 * m["dolp"][crop][yy, xx]
+    axs[0].quiver(xx, yy, ln * np.cos(ang), ln * np.sin(ang), color="C1", angles="xy", scale_units="xy", scale=1,
+                  headwidth=0, headlength=0, headaxislength=0, pivot="middle", width=0.006)
+    fig.suptitle(f"earth.inr --set polarization=1, {tag} UTC: the forward trace's Stokes maps, 128 x 128 over the "
+                 f"focal plane, {sun_rays} Sun rays per line (blank: the degree's standard error > 0.06)", fontsize=10)
     fig.tight_layout()
     fig.savefig(out)
     print(out, {b: (round(m["disk"], 4), round(float(m["sd"]), 4)) for b, m in maps.items()})
+    # the disk-integrated Stokes spectrum at the entrance pupil (SPECTRUM OF pupil ... STOKES): the degree of
+    # linear polarization per line with its standard error (delta method, I, Q and U taken as independent)
+    rows = np.genfromtxt(d / "polarization" / f"{tag}_disk.csv", delimiter=",", names=True)
+    lam, I, Q, U = rows["wavelength_nm"], rows["I_W"], rows["Q_W"], rows["U_W"]
+    sI, sQ, sU = rows["stderr_I_W"], rows["stderr_Q_W"], rows["stderr_U_W"]
+    ok = I > 0
+    p = np.hypot(Q[ok], U[ok]) / I[ok]
+    sp = np.sqrt((Q[ok] * sQ[ok]) ** 2 + (U[ok] * sU[ok]) ** 2) / (I[ok] ** 2 * np.maximum(p, 1e-12))
+    sp = np.hypot(sp, p * sI[ok] / I[ok])
+    fig, ax = plt.subplots(figsize=(10, 3.8), dpi=110)
+    ax.fill_between(lam[ok], p - 2 * sp, p + 2 * sp, color="C0", alpha=0.25, lw=0, label="+/- 2 standard errors")
+    ax.plot(lam[ok], p, "-", color="C0", lw=1, label="degree of linear polarization, per line")
+    for x, name in ((687, "O2 B"), (761, "O2 A"), (940, "H2O"), (1135, "H2O"), (1380, "H2O"), (1870, "H2O")):
+        ax.axvline(x, color="0.6", lw=0.6, ls=":")
+        ax.text(x, 0.97, name, transform=ax.get_xaxis_transform(), fontsize=7, ha="center", va="top")
+    ax.set_xlabel("wavelength (nm)")
+    ax.set_ylabel("degree of linear polarization")
+    ax.set_ylim(0, min(1.0, float(np.nanmax(p + 2 * sp)) * 1.1))
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="upper right")
+    ax.set_title(f"the whole disk at the entrance pupil, {tag} UTC, 57.7 deg phase ({sun_rays} Sun rays per line)",
+                 fontsize=10)
+    fig.tight_layout()
+    spec = out.with_name(out.stem + "_spectrum.png")
+    fig.savefig(spec)
+    m4, m6 = (lam >= 400) & (lam <= 500), (lam >= 600) & (lam <= 700)
+    print(spec, "disk degree 400-500 nm", np.hypot(Q[m4].sum(), U[m4].sum()) / I[m4].sum(), "600-700 nm",
+          np.hypot(Q[m6].sum(), U[m6].sum()) / I[m6].sum())
 
 
 if __name__ == "__main__":
@@ -173,4 +209,4 @@ if __name__ == "__main__":
     if "planet" in which:
         planet()
     if "earth" in which:
-        earth()
+        earth(folder=sys.argv[sys.argv.index("--from") + 1] if "--from" in sys.argv else None)

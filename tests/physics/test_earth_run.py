@@ -296,3 +296,42 @@ def test_red_edge_over_land_dominated_hours(tmp_path):
     d = np.mean([x for x, _ in rl]) - np.mean([x for x, _ in ro])
     sd = math.hypot(math.sqrt(sum(e * e for _, e in rl)) / len(rl), math.sqrt(sum(e * e for _, e in ro)) / len(ro))
     assert d > 3 * sd, (d, sd)
+
+
+def test_polarized_frame(tmp_path):
+    """`--set polarization=1` (issue 19): one forward frame traced with Stokes vectors.  The disk-integrated
+    Stokes spectrum at the entrance pupil (a one-pixel detector: exact standard errors; lines are independent rays,
+    so band sums add their variances) against what single Rayleigh scattering predicts, a physical expectation
+    rather than a number from a peer code (the numbers are checked in test_polarization.py): the Sun and the
+    observer lie near the equatorial plane, so the scattering plane is the pupil's x axis (east-west) and the
+    electric vector stands normal to it: Q < 0 and |U| << |Q|; and the degree is larger in the blue (more Rayleigh
+    light) than in the red.  Each decided at 5 standard errors (the ratio's by the delta method with Q and I taken
+    as independent, which overstates it: they are anticorrelated here).  Also: the Stokes maps are written and the
+    ledger of the polarized frame closes."""
+    out = run_earth(tmp_path, "hours=1", "polarization=1", "sun_rays=800", "window=16", "spectral_samples=1")
+    tag = "20080318T1819"
+    rows = list(csv.DictReader((out / "polarization" / f"{tag}_disk.csv").open()))
+    a = np.array([[float(r[k]) for k in ("wavelength_nm", "I_W", "Q_W", "U_W", "stderr_I_W", "stderr_Q_W",
+                                         "stderr_U_W")] for r in rows])
+    assert a.shape == (295, 7)
+
+    def band(lo, hi):
+        m = (a[:, 0] >= lo) & (a[:, 0] <= hi)
+        I, Q, U = (a[m, k].sum() for k in (1, 2, 3))
+        sI, sQ, sU = (math.sqrt((a[m, k] ** 2).sum()) for k in (4, 5, 6))
+        return I, Q, U, sI, sQ, sU
+
+    deg = {}
+    for lo, hi in ((400, 500), (600, 700)):
+        I, Q, U, sI, sQ, sU = band(lo, hi)
+        assert Q + 5 * sQ < 0, (lo, Q, sQ)
+        assert abs(U) <= 0.05 * abs(Q) + 5 * sU, (lo, U, sU, Q)
+        q = -Q / I
+        deg[lo] = (q, math.hypot(sQ / I, q * sI / I))
+    (q4, s4), (q6, s6) = deg[400], deg[600]
+    assert q4 - q6 > 5 * math.hypot(s4, s6), deg
+    for b in (450, 550, 650):
+        for k in ("I", "Q", "U", "V", "DOLP", "AOLP"):
+            m = np.load(out / "polarization" / f"{tag}_{b}nm_{k}.npy")
+            assert m.shape == (1, 128, 128) and np.all(np.isfinite(m))
+    assert ledger_gap(out / "ledger_first_frame.csv") < 1e-12
