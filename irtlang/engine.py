@@ -215,10 +215,6 @@ class Engine:
         from .tracer import run_trace
 
         p = step.params
-        if getattr(sc, "polarization", False):
-            raise RuntimeFailure(step.span, "TRACE CAMERA does not trace polarization yet (the camera-side path "
-                                 "would need each vertex's Mueller matrix transposed): use a forward TRACE "
-                                 "with POLARIZATION, or POLARIZATION OFF before TRACE CAMERA")
         csc, info = camera_scene(sc, cam, step.span)
         t0 = time.perf_counter()
         try:
@@ -233,6 +229,10 @@ class Engine:
         else:
             var = img2
         res.images[info["camera"]] = (img, var)
+        # POLARIZATION: the camera paths carry Stokes vectors from an unpolarized pixel to the unpolarized light;
+        # by reciprocity (each element's reversed Mueller matrix is diag(1, 1, -1, 1) M^T diag(1, 1, -1, 1)) the
+        # light's I is the pixel's polarization-correct I.  Its Q, U and V mean nothing for the pixel: dropped
+        res.stokes = None
         self._camera_sun_variables(csc, res, info, interp, step)
         res.packed = dataclasses.replace(res.packed, detector_names=[info["camera"]])
         res.camera = info
@@ -811,6 +811,10 @@ class Engine:
         angle of linear polarization, name_DOLP (0..1) and name_AOLP (degrees from the detector's local x toward
         e2 = d x e1, in (-90, 90]; docs/tracer.md, "Polarization")."""
         st = getattr(self.result, "stokes", None)
+        if getattr(self.result, "camera", None) is not None:
+            raise RuntimeFailure(step.span, f"EXPORT {obj.name} STOKES after TRACE CAMERA: the camera-side trace gives "
+                                 "the polarization-correct I image only; Q, U and V images need a forward TRACE "
+                                 "with POLARIZATION")
         if not st or obj.name not in st:
             raise RuntimeFailure(step.span, f"EXPORT {obj.name} STOKES needs a polarized trace: put "
                                  "POLARIZATION before TRACE")

@@ -406,9 +406,10 @@ def test_export_stokes_mistakes_are_clear_errors(tmp_path, capsys, what, message
     assert f"s.inr:{line}:" in err
 
 
-def test_trace_camera_refuses_polarization(tmp_path, capsys):
-    """The camera-side estimator is scalar (docs/tracer.md, "Polarization"): TRACE CAMERA under POLARIZATION is a
-    run-time error at its line, before anything is traced."""
+def test_camera_trace_gives_no_stokes_images(tmp_path, capsys):
+    """TRACE CAMERA under POLARIZATION gives the polarization-correct I image (test_camera_image.py checks it
+    against the forward trace); its Q, U and V would mean nothing for the pixel, so EXPORT ... STOKES after it is a
+    run-time error at its line, not a wrong picture."""
     from irtlang.cli import main
 
     text = """UNITS M
@@ -428,13 +429,16 @@ OBJECT fpa
 EMITTING SPHERE 8.66e8 0 -4.999e8 1e6 RAYS 1
 FLUX TOTAL 1e18 W
 TRACE CAMERA fpa AIM ball
+EXPORT fpa 'cam.npy'
+EXPORT fpa 'cam.npy' STOKES
 """
     f = Path(tmp_path) / "cam.inr"
     f.write_text(text)
     code = main(["run", str(f), "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err
-    assert code == 1 and "TRACE CAMERA does not trace polarization yet" in err and "Traceback" not in err, err
-    assert "cam.inr:17:" in err
+    assert code == 1 and "STOKES after TRACE CAMERA" in err and "Traceback" not in err, err
+    assert "cam.inr:19:" in err
+    assert (tmp_path / "out" / "cam.npy").exists()
 
 
 def test_spectrum_of_stokes(tmp_path, capsys):
