@@ -75,6 +75,11 @@ def test_camera_agrees_with_forward(tmp_path, scene, spectral):
     """spectral = 2: each camera ray position sends 2 rays whose lines are drawn from the lines' weights."""
     cam, cse = _run(tmp_path, "cam", mode="camera", scene=scene, spectral_k=spectral)
     fwd, fse = _run(tmp_path, "fwd", mode="forward", scene=scene)
+    _same_image(cam, cse, fwd, fse, scene)
+
+
+def _same_image(cam, cse, fwd, fse, label):
+    """Camera and forward images of one scene agree pixel by pixel and in total (the module docstring)."""
     assert cam.shape == fwd.shape == (2, 24, 24)
     # pixels the forward trace measured (its per-pixel standard error is itself an estimate: need some hits)
     m = (fse > 0) & (fse < 0.3 * np.abs(fwd)) & (cse > 0)
@@ -83,10 +88,10 @@ def test_camera_agrees_with_forward(tmp_path, scene, spectral):
     chi2 = float((((cam - fwd) ** 2) / (cse ** 2 + fse ** 2))[m].mean())
     # one-sided: the camera's per-pixel errors treat its stratified rays as independent, which overstates them
     # (chi2/dof 0.53 here); the images must not differ by more than both errors allow
-    assert chi2 < 1.0 + _chi2_band(dof), (scene, chi2, dof)
+    assert chi2 < 1.0 + _chi2_band(dof), (label, chi2, dof)
     for k in range(2):
         s = math.sqrt((cse[k] ** 2).sum() + (fse[k] ** 2).sum())
-        assert abs(cam[k].sum() - fwd[k].sum()) < 5 * s, (scene, k, cam[k].sum(), fwd[k].sum(), s)
+        assert abs(cam[k].sum() - fwd[k].sum()) < 5 * s, (label, k, cam[k].sum(), fwd[k].sum(), s)
 
 
 def test_camera_standard_errors_are_honest(tmp_path):
@@ -171,14 +176,7 @@ def test_polarized_camera_agrees_with_forward(tmp_path, analyzer):
     at 0): a camera trace that ignored the polarization (or the sign of U, at 30 deg) would disagree."""
     cam, cse = _run(tmp_path, "cam", mode="camera", scene="slab", analyzer=analyzer)
     fwd, fse = _run(tmp_path, "fwd", mode="forward", scene="slab", analyzer=analyzer)
-    m = (fse > 0) & (fse < 0.3 * np.abs(fwd)) & (cse > 0)
-    dof = int(m.sum())
-    assert dof > 100, dof
-    chi2 = float((((cam - fwd) ** 2) / (cse ** 2 + fse ** 2))[m].mean())
-    assert chi2 < 1.0 + _chi2_band(dof), (analyzer, chi2, dof)
-    for k in range(2):
-        s = math.sqrt((cse[k] ** 2).sum() + (fse[k] ** 2).sum())
-        assert abs(cam[k].sum() - fwd[k].sum()) < 5 * s, (analyzer, k, cam[k].sum(), fwd[k].sum(), s)
+    _same_image(cam, cse, fwd, fse, f"analyzer {analyzer}")
     if analyzer == 30:      # the polarization matters here: along x (0 deg) the image is much dimmer
         f0, s0 = _run(tmp_path, "fwd0", mode="forward", scene="slab", analyzer=0)
         for k in range(2):

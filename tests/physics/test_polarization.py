@@ -597,17 +597,6 @@ def test_metal_mirror_fresnel_with_complex_index(tmp_path, theta):
     assert ledger_gap(res) < 1e-12
 
 
-def test_metal_coating_needs_its_extinction(tmp_path, capsys):
-    """COATING ... METAL n without EXTINCTION k: an error at the line with the hint of the form, exit 2."""
-    from irtlang.cli import main
-
-    f = Path(tmp_path) / "m.inr"
-    f.write_text("UNITS MM\nWAVELENGTHS 550 NM\nCOATING alu METAL 0.958\n")
-    code = main(["check", str(f)])
-    err = capsys.readouterr().err
-    assert code == 2 and "m.inr:3:" in err and "EXTINCTION" in err and "Traceback" not in err, err
-
-
 # ------------------------------------------------------------------------------------------------ 6SV
 SIXS = Path(__file__).resolve().parent / "data" / "sixs_rayleigh.csv"
 
@@ -683,12 +672,18 @@ OBJECT face
     assert ledger_gap(res) < 1e-12
 
 
-def test_polarized_coating_mistakes(tmp_path, capsys):
-    """Rs + Ts > 1 is refused with the line, the polarization and the wavelength, exit 2."""
+@pytest.mark.parametrize("line,message", [
+    ("COATING alu METAL 0.958", "EXTINCTION"),          # METAL n without EXTINCTION k
+    ("COATING bad POLARIZED RS 0.6 RP 0.3 TS 0.3 0.5",
+     "3:1: error: coating bad: Rs + Ts = 0.6 + 0.5 = 1.1 > 1 on line 2 (550 nm)"),
+])
+def test_coating_mistakes(tmp_path, capsys, line, message):
+    """A METAL without its extinction, or a POLARIZED coating with Rs + Ts > 1: an error at the line (with the
+    polarization and the wavelength), exit 2, no traceback."""
     from irtlang.cli import main
 
     f = Path(tmp_path) / "c.inr"
-    f.write_text("UNITS MM\nWAVELENGTHS 450 550 NM\nCOATING bad POLARIZED RS 0.6 RP 0.3 TS 0.3 0.5\n")
+    f.write_text(f"UNITS MM\nWAVELENGTHS 450 550 NM\n{line}\n")
     code = main(["check", str(f)])
     err = capsys.readouterr().err
-    assert code == 2 and "c.inr:3:1: error: coating bad: Rs + Ts = 0.6 + 0.5 = 1.1 > 1 on line 2 (550 nm)" in err, err
+    assert code == 2 and "c.inr:3:" in err and message in err and "Traceback" not in err, err
