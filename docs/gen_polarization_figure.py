@@ -1,5 +1,5 @@
 """The polarization figures of docs/tracer.md and docs/earth.md.  Run:
-``python docs/gen_polarization_figure.py [cds] [planet] [earth [--from DIR]]``.
+``python docs/gen_polarization_figure.py [cds] [planet] [earth|earth-clear [--from DIR]]``.
 
 * docs/img/polarization_cds.png: irtlang's polarized (and scalar) trace of a Rayleigh layer against the
   Coulson-Dave-Sekera tables (Natraj et al. 2009); the scenes are tests/physics/test_polarization.py's (about a
@@ -10,7 +10,9 @@
   forward trace's Stokes maps on a 128 x 128 grid over the focal plane): I at 450 nm, the degree of linear
   polarization at 450 and 650 nm and its angle, pixels whose degree has a standard error above 0.05 left blank
   (about 10 minutes); and docs/img/earth_polarization_spectrum.png, the disk's degree of linear polarization per
-  line from the entrance pupil's Stokes spectrum."""
+  line from the entrance pupil's Stokes spectrum;
+* docs/img/earth_polarization_clear.png (``earth-clear``): the same frame with a clear sky (``--set clouds='none'``)
+  on a 256 x 256 grid with 25,600 Sun rays per line (about 12 minutes): the glint and the Rayleigh limb."""
 from __future__ import annotations
 
 import math
@@ -108,8 +110,9 @@ def planet(out: Path = ROOT / "docs" / "img" / "polarization_planet.png", rays: 
 
 
 def earth(out: Path = ROOT / "docs" / "img" / "earth_polarization.png", sun_rays: int = 12800,
-          folder: str | None = None) -> None:
-    """folder: the output folder of such a run already made (only the picture is drawn again)."""
+          folder: str | None = None, clouds: str = "eddington", pixels: int = 128, spectrum: bool = True) -> None:
+    """folder: the output folder of such a run already made (only the picture is drawn again); clouds, pixels:
+    earth_scene.inr's `clouds` and earth.inr's `pol_pixels`; spectrum: also draw the disk's spectrum."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -121,12 +124,20 @@ def earth(out: Path = ROOT / "docs" / "img" / "earth_polarization.png", sun_rays
     if not folder:
         assert irt(["run", str(ROOT / "examples_scripts" / "earth.inr"), "--out", str(d), "--quiet",
                     "--set", "hours=1", "--set", "polarization=1", "--set", f"sun_rays={sun_rays}",
-                    "--set", "window=16", "--set", "spectral_samples=1", "--set", "save_rays=0"]) == 0
+                    "--set", f"clouds='{clouds}'", "--set", f"pol_pixels={pixels}", "--set", "window=16",
+                    "--set", "spectral_samples=1", "--set", "save_rays=0"]) == 0
     tag = next((d / "polarization").glob("*_450nm_I.npy")).name[:-len("_450nm_I.npy")]
 
+    b = max(1, pixels // 128)       # drawn on a 128 x 128 grid: b x b map pixels summed (their tallies add up)
+
+    def binned(a, square=False):
+        a = a.reshape(a.shape[0] // b, b, a.shape[1] // b, b)
+        return np.sqrt((a * a).sum(axis=(1, 3))) if square else a.sum(axis=(1, 3))
+
     def load(band):
-        s = {k: np.load(d / "polarization" / f"{tag}_{band}nm_{k}.npy")[0] for k in "IQU"}
-        e = {k: np.load(d / "polarization" / f"{tag}_{band}nm_{k}.stderr.npy")[0] for k in "IQU"}
+        s = {k: binned(np.load(d / "polarization" / f"{tag}_{band}nm_{k}.npy")[0]) for k in "IQU"}
+        # summed pixels' errors combined as independent (they come from the same rays: only for the blanking)
+        e = {k: binned(np.load(d / "polarization" / f"{tag}_{band}nm_{k}.stderr.npy")[0], True) for k in "IQU"}
         return s, e
 
     maps = {}
@@ -148,30 +159,37 @@ def earth(out: Path = ROOT / "docs" / "img" / "earth_polarization.png", sun_rays
     r0, r1, c0, c1 = rows.min() - 3, rows.max() + 4, cols.min() - 3, cols.max() + 4
     crop = (slice(max(r0, 0), r1), slice(max(c0, 0), c1))
     fig, axs = plt.subplots(1, 3, figsize=(14, 4.6), dpi=110)
-    pics = ((np.sqrt(maps[450]["i"] / maps[450]["i"].max()), "sqrt of I at 450 nm; E's direction (length: 6 px x degree)",
+    ib = 450 if clouds == "eddington" else 650        # a clear sky: the glint shows at 650 nm
+    pics = ((np.sqrt(maps[ib]["i"] / maps[ib]["i"].max()),
+             f"sqrt of I at {ib} nm; E's direction (length: 6 px x degree)",
              dict(cmap="gray", vmin=0, vmax=1)),
             (maps[450]["dolp"], f"degree of linear polarization, 450 nm (disk {maps[450]['disk']:.3f})",
              dict(cmap="viridis", vmin=0, vmax=0.7)),
             (maps[650]["dolp"], f"degree of linear polarization, 650 nm (disk {maps[650]['disk']:.3f})",
              dict(cmap="viridis", vmin=0, vmax=0.7)))
     for ax, (a, title, kw) in zip(axs, pics):
-        im = ax.imshow(a[crop], origin="lower", interpolation="nearest", **kw)
+        # as the RGB frames are drawn: the focal plane's row 0 on top, which puts north up (earth_scene.inr)
+        im = ax.imshow(a[crop], origin="upper", interpolation="nearest", **kw)
         ax.set_title(title, fontsize=9)
         ax.set_xticks([])
         ax.set_yticks([])
         fig.colorbar(im, ax=ax, shrink=0.85)
     # the electric vector's direction (the angle from the detector's x) scaled by the degree, where it is known
-    m = maps[450]
+    m = maps[ib]
     yy, xx = np.nonzero(m["ok"][crop])
     ang = np.radians(m["aolp"][crop][yy, xx])
     ln = 6.0 * m["dolp"][crop][yy, xx]
     axs[0].quiver(xx, yy, ln * np.cos(ang), ln * np.sin(ang), color="C1", angles="xy", scale_units="xy", scale=1,
                   headwidth=0, headlength=0, headaxislength=0, pivot="middle", width=0.006)
-    fig.suptitle(f"earth.inr --set polarization=1, {tag} UTC: the forward trace's Stokes maps, 128 x 128 over the "
-                 f"focal plane, {sun_rays} Sun rays per line (blank: the degree's standard error > 0.06)", fontsize=10)
+    sky = "" if clouds == "eddington" else f" --set clouds='{clouds}'"
+    grid = f"{pixels} x {pixels}" + (f" summed to {pixels // b} x {pixels // b}" if b > 1 else "")
+    fig.suptitle(f"earth.inr --set polarization=1{sky}, {tag} UTC: forward Stokes maps ({grid}), {sun_rays} Sun "
+                 "rays per line, north up (blank: the degree's standard error > 0.06)", fontsize=9)
     fig.tight_layout()
     fig.savefig(out)
     print(out, {b: (round(m["disk"], 4), round(float(m["sd"]), 4)) for b, m in maps.items()})
+    if not spectrum:
+        return
     # the disk-integrated Stokes spectrum at the entrance pupil (SPECTRUM OF pupil ... STOKES): the degree of
     # linear polarization per line with its standard error (delta method, I, Q and U taken as independent)
     rows = np.genfromtxt(d / "polarization" / f"{tag}_disk.csv", delimiter=",", names=True)
@@ -208,5 +226,9 @@ if __name__ == "__main__":
         cds()
     if "planet" in which:
         planet()
+    given = sys.argv[sys.argv.index("--from") + 1] if "--from" in sys.argv else None
     if "earth" in which:
-        earth(folder=sys.argv[sys.argv.index("--from") + 1] if "--from" in sys.argv else None)
+        earth(folder=given)
+    if "earth-clear" in which:      # a clear sky: the glint and the Rayleigh limb
+        earth(ROOT / "docs" / "img" / "earth_polarization_clear.png", sun_rays=25600, folder=given, clouds="none",
+              pixels=256, spectrum=False)

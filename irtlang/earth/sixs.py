@@ -13,7 +13,13 @@ the satellite-level sensor, a Lambertian ground), runs the executable and parses
 * ``apparent_reflectance``: the top-of-atmosphere reflectance pi L / (mu_s E0);
 * the Rayleigh optical depth;
 * ``rayleigh_I``, ``rayleigh_Q``, ``rayleigh_U``: the polarized (vector) atmospheric reflectance of the Rayleigh
-  atmosphere alone (over a black ground), Q and U in the meridian plane's frame.
+  atmosphere alone (over a black ground), Q and U in the meridian plane's frame;
+* with ``ocean=(wind m/s, wind azimuth deg, salinity ppt, pigment mg/m3)`` (6S's ocean ground: Cox-Munk glint
+  with its anisotropic Gram-Charlier slopes, foam, and the water body): ``polarized_reflectance`` and
+  ``polarization_direction`` (deg; the top of the atmosphere's P = sqrt(Q^2 + U^2) and chi = atan2(U, Q) / 2),
+  ``surface_Q``, ``surface_U`` (the ocean's own polarized reflectance), ``foam``, ``water_leaving``, ``glint`` (its
+  reflectance components), ``rodir`` (their sum: the surface's directional reflectance at the geometry) and
+  ``direct_share``, ``diffuse_share`` (of the ground's irradiance).
 
 6S's atmospheres (``ATMOSPHERES``): 1 tropical, 2 mid-latitude summer, 3 mid-latitude winter, 4 sub-arctic
 summer, 5 sub-arctic winter: the AFGL 1986 profiles (Anderson et al. 1986), the same five irtlang takes from
@@ -51,9 +57,10 @@ def executable() -> str:
 
 def input_deck(*, sza: float, vza: float, raa: float = 0.0, atmosphere="midlatitude_summer",
                wavelength_um=None, band_um=None, albedo: float = 0.0, month: int = 3, day: int = 18,
-               aot550: float = 0.0) -> str:
+               aot550: float = 0.0, ocean=None) -> str:
     """The 6S input text.  One of wavelength_um (monochromatic) or band_um = (lo, hi) (a rectangular filter,
-    integrated by 6S on its 2.5 nm grid)."""
+    integrated by 6S on its 2.5 nm grid).  The ground: Lambertian of ``albedo``, or with ``ocean`` = (wind speed
+    m/s, wind azimuth deg, salinity ppt, pigment mg/m3) 6S's ocean BRDF (homogeneous ground, directional model 6)."""
     atm = ATMOSPHERES[atmosphere] if isinstance(atmosphere, str) else int(atmosphere)
     lines = ["0", f"{sza:.6f} 0.0 {vza:.6f} {raa:.6f} {month} {day}", str(atm)]
     if aot550 > 0:
@@ -66,7 +73,10 @@ def input_deck(*, sza: float, vza: float, raa: float = 0.0, atmosphere="midlatit
     else:
         lo, hi = band_um
         lines += ["0", f"{lo:.6f} {hi:.6f}"]
-    lines += ["0", "0", "0", f"{albedo:.6f}", "-1"]
+    if ocean is not None:
+        lines += ["0", "1", "6", " ".join(f"{float(x):.6f}" for x in ocean), "-1"]
+    else:
+        lines += ["0", "0", "0", f"{albedo:.6f}", "-1"]
     return "\n".join(lines) + "\n"
 
 
@@ -86,6 +96,20 @@ def parse_output(text: str) -> dict:
     for comp in "IQU":
         m = re.search(r"reflectance " + comp + r"\s*:\s*" + _NUM, text)
         out[f"rayleigh_{comp}"] = float(m.group(1)) if m else float("nan")
+    # the top of the atmosphere's polarized reflectance and its direction, and an ocean ground's own terms
+    for key, pat in (("polarized_reflectance", r"app\. polarized refl\.\s+"),
+                     ("polarization_direction", r"direction of the plane of polarization\s*")):
+        m = re.search(pat + _NUM, text)
+        out[key] = float(m.group(1)) if m else float("nan")
+    m = re.search(r"Surface Polarization Q,U,Rop,Chi\s+" + _NUM + r"\s+" + _NUM, text)
+    out["surface_Q"], out["surface_U"] = (float(m.group(1)), float(m.group(2))) if m else (float("nan"),) * 2
+    m = re.search(r"Foam:\s+" + _NUM + r"\s+Water:\s+" + _NUM + r"\s+Glint:\s+" + _NUM, text)
+    out["foam"], out["water_leaving"], out["glint"] = tuple(float(v) for v in m.groups()) if m else (float("nan"),) * 3
+    m = re.search(r"% of direct  irr\.\s+% of diffuse irr\.\s+% of enviro\. irr\s*\*?\s*\*?\s*" + _NUM + r"\s+" + _NUM,
+                  text)
+    out["direct_share"], out["diffuse_share"] = (float(m.group(1)), float(m.group(2))) if m else (float("nan"),) * 2
+    m = re.search(r"rodir\s+robar\s+ropbar\s+albedo\s*\*?\s*\*?\s*" + _NUM, text)
+    out["rodir"] = float(m.group(1)) if m else float("nan")
     return out
 
 

@@ -147,6 +147,19 @@ def test_band_outside_the_spectral_range(tmp_path):
 
 def test_earth_model_choice_is_checked(tmp_path):
     assert irt_main(["check", str(EARTH), "--set", "earth_model='marble'"]) == 2
+    assert irt_main(["check", str(EARTH), "--set", "clouds='fog'"]) == 2
+
+
+def test_clear_sky_has_no_cloud_shells(tmp_path):
+    """`--set clouds='none'` (docs/earth.md, the clear-sky polarized frame): the same scene without the three
+    cloud shells."""
+    text = "band = 'all'\nINCLUDE '{}'\nCALL earth_at 0\n"
+    names = {}
+    for clouds in ("none", "eddington"):
+        it = _interp(f"clouds = '{clouds}'\n" + text.format(EARTH.with_name("earth_scene.inr")), tmp_path)
+        names[clouds] = {o.name.upper() for o in it.state.objects.values()}
+    assert names["eddington"] - names["none"] == {"CLOUD_LOW", "CLOUD_MIDDLE", "CLOUD_HIGH"}, names
+    assert names["none"] < names["eddington"]
 
 
 # ------------------------------------------------------------------------------------------- geometry
