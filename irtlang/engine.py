@@ -204,10 +204,19 @@ class Engine:
             print(f"warning: {lost:.3g} W of ray flux was LOST to numerical failures "
                   f"(see STATS LEDGER)", file=sys.stderr)
 
+    # TRACE CAMERA ... STOKES: six traces, each behind ideal elements on the detector's face (from the detector
+    # outward; angles from its local x toward its y): linear analyzers at 0, 90, 45 and 135 deg, and two
+    # circular ones (a polarizer at -+45 deg behind a quarter-wave retarder along x)
+    STOKES_ANALYZERS = ((("polarizer", 0.0),), (("polarizer", math.pi / 2),),
+                        (("polarizer", math.pi / 4),), (("polarizer", 3 * math.pi / 4),),
+                        (("polarizer", -math.pi / 4), ("retarder", 0.0, math.pi / 2)),
+                        (("polarizer", math.pi / 4), ("retarder", 0.0, math.pi / 2)))
+
     def _trace_camera(self, step, sc, cam, interp):
         """TRACE CAMERA: a camera-side (adjoint) trace (irtlang/model/camera.py).  Its image becomes the camera
         object's, so EXPORT, ANALYZE and the REPL see it as a forward trace's; per-pixel standard errors use the
-        number of rays each pixel started (s^2 per traced line), not the whole trace's."""
+        number of rays each pixel started (s^2 per traced line), not the whole trace's.  With STOKES, six traces
+        behind ideal analyzers (STOKES_ANALYZERS; independent random streams: seed + k 2^40) give I, Q, U, V."""
         import dataclasses
 
         from .compile.pack import MissingFeature
@@ -215,24 +224,46 @@ class Engine:
         from .tracer import run_trace
 
         p = step.params
-        csc, info = camera_scene(sc, cam, step.span)
+        passes = self.STOKES_ANALYZERS if cam.get("stokes") else ((),)
         t0 = time.perf_counter()
-        try:
-            res = run_trace(csc, seed=csc.seed if self.seed is None else self.seed, level=p["level"], halt=p["halt"],
-                            records=False, history=False, progress=self.progress, runner=self.runner)
-        except MissingFeature as e:
-            raise MissingCapability(e.span, e.what, e.capability) from None
-        img, img2 = res.images.pop(csc.objects[info["light"]].name)
-        n_p = info["rays_per_pixel_line"] * info["samples"]      # rays started in each pixel
-        if n_p > 1:
-            var = np.maximum(img2 - img * img / n_p, 0.0) * (n_p / (n_p - 1))
+        imgs, n_traced = [], 0
+        for k, analyzer in enumerate(passes):
+            csc, info = camera_scene(sc, cam, step.span, analyzer)
+            seed = csc.seed if self.seed is None else self.seed
+            try:
+                res = run_trace(csc, seed=(seed + (k << 40)) % (1 << 63), level=p["level"], halt=p["halt"],
+                                records=False, history=False, progress=self.progress, runner=self.runner)
+            except MissingFeature as e:
+                raise MissingCapability(e.span, e.what, e.capability) from None
+            img, img2 = res.images.pop(csc.objects[info["light"]].name)
+            n_p = info["rays_per_pixel_line"] * info["samples"]      # rays started in each pixel
+            if n_p > 1:
+                var = np.maximum(img2 - img * img / n_p, 0.0) * (n_p / (n_p - 1))
+            else:
+                var = img2
+            imgs.append((img, var))
+            n_traced += res.n_traced
+        if cam.get("stokes"):
+            # the analyzers' images: I_a = (I + Q cos 2a' + U sin 2a') / 2 (a' the axis in the detector's Stokes
+            # frame, e1 = its x, e2 = d x e1: the light arrives along -side n, so e2 = -side y and a' = -side a),
+            # and the circular pair (I +- V) / 2 (docs/tracer.md, "Polarization"); independent traces, so their
+            # variances add
+            (a0, v0), (a90, v90), (a45, v45), (a135, v135), (ar, vr), (al, vl) = imgs
+            sg = -info["side"]
+            img = (a0 + a90 + a45 + a135 + ar + al) / 3.0
+            var = (v0 + v90 + v45 + v135 + vr + vl) / 9.0
+            stokes = (np.stack([img, a0 - a90, sg * (a45 - a135), sg * (ar - al)]),
+                      np.stack([var, v0 + v90, v45 + v135, vr + vl]))
+            res.stokes = {info["camera"]: stokes}
         else:
-            var = img2
+            img, var = imgs[0]
+            # POLARIZATION: the camera paths carry Stokes vectors from an unpolarized pixel to the unpolarized
+            # light; by reciprocity (each element's reversed Mueller matrix is diag(1, 1, -1, 1) M^T diag(1, 1,
+            # -1, 1)) the light's I is the pixel's polarization-correct I.  Its Q, U and V mean nothing for the
+            # pixel: dropped
+            res.stokes = None
         res.images[info["camera"]] = (img, var)
-        # POLARIZATION: the camera paths carry Stokes vectors from an unpolarized pixel to the unpolarized light;
-        # by reciprocity (each element's reversed Mueller matrix is diag(1, 1, -1, 1) M^T diag(1, 1, -1, 1)) the
-        # light's I is the pixel's polarization-correct I.  Its Q, U and V mean nothing for the pixel: dropped
-        res.stokes = None
+        res.n_traced = n_traced
         self._camera_sun_variables(csc, res, info, interp, step)
         res.packed = dataclasses.replace(res.packed, detector_names=[info["camera"]])
         res.camera = info
@@ -246,6 +277,8 @@ class Engine:
         med = float(np.median(rel[lit])) if lit.any() else float("nan")
         how = (f"{info['rays_per_pixel_line']} x {info['spectral']} per pixel, lines drawn from {info['lines']}"
                if info["spectral"] else f"{info['rays_per_pixel_line']} per pixel and line, {info['lines']} lines")
+        if cam.get("stokes"):
+            how += "; six traces behind ideal analyzers: I, Q, U, V"
         self.out(f"TRACE CAMERA {info['camera']}: {res.n_traced:,} camera rays ({how}, "
                  f"pixels {i0}..{i1 - 1} x {j0}..{j1 - 1}); "
                  f"{img.sum():.6g} W on the window, median relative standard error {med:.2%} on lit pixels; "
@@ -560,6 +593,9 @@ class Engine:
         res = self.result
         name = res.packed.object_names[o]
         st = getattr(res, "stokes", None)
+        if getattr(res, "camera", None) is not None:
+            raise RuntimeFailure(step.span, f"SPECTRUM OF {name} STOKES after TRACE CAMERA: a camera trace's Stokes "
+                                 "vectors are images: EXPORT the camera ... STOKES after TRACE CAMERA ... STOKES")
         if not st:
             raise RuntimeFailure(step.span, f"SPECTRUM OF {name} STOKES needs a polarized trace: put POLARIZATION "
                                  "before TRACE")
@@ -811,10 +847,10 @@ class Engine:
         angle of linear polarization, name_DOLP (0..1) and name_AOLP (degrees from the detector's local x toward
         e2 = d x e1, in (-90, 90]; docs/tracer.md, "Polarization")."""
         st = getattr(self.result, "stokes", None)
-        if getattr(self.result, "camera", None) is not None:
-            raise RuntimeFailure(step.span, f"EXPORT {obj.name} STOKES after TRACE CAMERA: the camera-side trace gives "
-                                 "the polarization-correct I image only; Q, U and V images need a forward TRACE "
-                                 "with POLARIZATION")
+        if getattr(self.result, "camera", None) is not None and not st:
+            raise RuntimeFailure(step.span, f"EXPORT {obj.name} STOKES after TRACE CAMERA without STOKES: that trace "
+                                 "gives the polarization-correct I image only; Q, U and V images need TRACE CAMERA "
+                                 "... STOKES (or a forward TRACE) with POLARIZATION")
         if not st or obj.name not in st:
             raise RuntimeFailure(step.span, f"EXPORT {obj.name} STOKES needs a polarized trace: put "
                                  "POLARIZATION before TRACE")

@@ -784,7 +784,9 @@ def _square(x):
                                    doc="only pixel columns i0..i1-1 and rows j0..j1-1 (from 0)"),
                             Clause("FILTER", (Ref("cam_filter", "spectrum"),),
                                    doc="only that filter's image of the camera's DETECTOR FILTERS, every line drawn "
-                                       "from its band"))),
+                                       "from its band"),
+                            Clause("STOKES", (), doc="under POLARIZATION: I, Q, U and V images, from six traces "
+                                                     "behind ideal analyzers on the detector (6 x the time)"))),
          "trace", "trace every source defined since the last TRACE [CAMERA obj AIM obj: a camera-side image]")
 def _trace(it, b, st):
     s = it.state
@@ -812,10 +814,14 @@ def _trace(it, b, st):
     _check_scene(it, b)
     _warn_consider(it, b)
     camera = None
-    if "camera" in b or "aim" in b or "per_pixel" in b or "i0" in b or "spectral" in b or "cam_filter" in b:
+    if ("camera" in b or "aim" in b or "per_pixel" in b or "i0" in b or "spectral" in b or "cam_filter" in b
+            or "stokes" in b):
         if "camera" not in b or "aim" not in b:
             raise error(b.span, "a camera-side TRACE needs both CAMERA obj and AIM obj",
-                        "TRACE CAMERA fpa AIM secondary [RAYS n] [SPECTRAL k] [WINDOW i0 i1 j0 j1] [FILTER f]")
+                        "TRACE CAMERA fpa AIM secondary [RAYS n] [SPECTRAL k] [WINDOW i0 i1 j0 j1] [FILTER f] [STOKES]")
+        if "stokes" in b and not s.polarization:
+            raise error(b.span_of("stokes"), "TRACE CAMERA ... STOKES needs a polarized trace",
+                        "put POLARIZATION before the TRACE")
         if "error" in b:
             raise error(b.span, "TRACE CAMERA cannot be combined with UNTIL ERROR", "give RAYS n per pixel instead")
         cam = s.objects[b["camera"]]
@@ -842,7 +848,7 @@ def _trace(it, b, st):
             only = filters[names.index(b["cam_filter"])]
             filters = [only]
         camera = {"camera": b["camera"], "aim": b["aim"], "sub": math.isqrt(int(b.get("per_pixel", 1))),
-                  "window": win, "spectral": int(b.get("spectral", 0)), "filter": only}
+                  "window": win, "spectral": int(b.get("spectral", 0)), "filter": only, "stokes": "stokes" in b}
         # the light's band irradiance at 1 AU (W/m2) per image of the camera, for I/F; set by the run, 0 here
         for fname in (filters or [""]):
             it.assign("CAMERA_SUN" + (f"_{fname}" if fname else ""), Quantity(0.0, NONE), b.span)

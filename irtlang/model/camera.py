@@ -24,6 +24,13 @@ w0 = pi A L_s / s^2 (per ray of the s^2 in a pixel) the light's START image is t
 Lambertian sphere of power P per line (FLUX, as the forward trace emits it) has radiance P / (4 pi^2 R^2).
 
 Only the lines the detector responds to are traced (QE and, with FILTERS, any filter's transmission above 0).
+
+Stokes images (``TRACE CAMERA ... STOKES`` under POLARIZATION): an ``analyzer`` puts ideal elements on the
+detector's face, each a plane parallel to it a hair in front (on the instrument's side), as wide as the detector
+and more: a linear polarizer at an angle from the detector's local x toward its y, or (circular) a polarizer at
++-45 deg and, beyond it, a quarter-wave retarder along x.  By reciprocity the camera trace's I is then what the
+pixel measures behind that analyzer; the engine combines six such traces into I, Q, U and V
+(irtlang/engine.py, docs/tracer.md "Polarization").
 This module only builds model objects: the packing is in irtlang/compile/pack.py ("CAMERA" sources).
 """
 from __future__ import annotations
@@ -34,12 +41,14 @@ from ..core.diagnostics import Span, error
 from . import scene as M
 
 
-def camera_scene(scene: M.Scene, params: dict, span: Span) -> tuple[M.Scene, dict]:
+def camera_scene(scene: M.Scene, params: dict, span: Span, analyzer: tuple = ()) -> tuple[M.Scene, dict]:
     """The scene of a camera trace and what the engine needs to present its image as the camera's.
 
     params: camera (object key), aim (object key), sub (s: s x s rays per pixel and line), spectral (k spectral
     samples per point, 0: every line), window
-    ((i0, i1, j0, j1) pixel columns i0..i1-1 and rows j0..j1-1, or None for the whole detector)."""
+    ((i0, i1, j0, j1) pixel columns i0..i1-1 and rows j0..j1-1, or None for the whole detector).
+    analyzer: ideal elements on the detector's face, from the detector outward: ("polarizer", angle) or
+    ("retarder", angle, retardance), angles in radians from the detector's local x toward its y."""
     objs = scene.objects
     cam = objs.get(params["camera"])
     aim = objs.get(params["aim"])
@@ -118,6 +127,19 @@ def camera_scene(scene: M.Scene, params: dict, span: Span) -> tuple[M.Scene, dic
         sc = tuple(M.replace(s, toward=lname, rays=1) for s in o.scatter)
         new_objs[k] = M.replace(o, scatter=sc, detector=None)
     new_objs[lname] = light_obj
+    # the analyzer: planes parallel to the detector, k + 1 steps of `gap` in front of it on the instrument's side
+    # (the rays start eps = 1e-9 size off the detector; a self-hit tolerance is 1e-9 of the coordinates)
+    gap = 1e-6 * max(hx, hy, *(abs(t) for t in frame.T))
+    n_obj = (surf.frame.R[2], surf.frame.R[5], surf.frame.R[8])      # the detector's normal, object frame
+    medium = cam.interface.front if side > 0 else cam.interface.back
+    for k, el in enumerate(analyzer):
+        aname = f"CAMERA_ANALYZER_{k}"
+        while aname in new_objs:
+            aname += "_"
+        a_surf = M.replace(surf, aperture=M.Aperture("RECT", (1.5 * hx, 1.5 * hy), surf.span),
+                           frame=surf.frame.shifted(tuple(side * (k + 1) * gap * n for n in n_obj)))
+        itf = M.Interface(el[0], None, medium, medium, span, el[1], el[2] if len(el) > 2 else 0.0)
+        new_objs[aname] = M.SceneObject(aname, (a_surf,), cam.transform, itf, (), None, cam.group, span)
     media = {}
     for k, m in scene.media.items():
         vol = m.params.get("volume") if m.params else None
@@ -131,6 +153,7 @@ def camera_scene(scene: M.Scene, params: dict, span: Span) -> tuple[M.Scene, dic
         cam.group, light.flux, span)
     sc2 = M.replace(scene, objects=M.frozen_params(new_objs), media=M.frozen_params(media), sources=(src,))
     info = dict(camera=cam.name, light=lname, window=(i0, i1, j0, j1), rays_per_pixel_line=params["sub"] ** 2,
+                side=side,
                 lines=sum(mask), spectral=spectral, samples=spectral if spectral > 0 else sum(mask),
                 pixel_size=(px, py))
     return sc2, info

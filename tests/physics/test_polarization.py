@@ -409,13 +409,7 @@ def test_export_stokes_mistakes_are_clear_errors(tmp_path, capsys, what, message
     assert f"s.inr:{line}:" in err
 
 
-def test_camera_trace_gives_no_stokes_images(tmp_path, capsys):
-    """TRACE CAMERA under POLARIZATION gives the polarization-correct I image (test_camera_image.py checks it
-    against the forward trace); its Q, U and V would mean nothing for the pixel, so EXPORT ... STOKES after it is a
-    run-time error at its line, not a wrong picture."""
-    from irtlang.cli import main
-
-    text = """UNITS M
+_CAMERA_TEXT = """UNITS M
 WAVELENGTHS 550 NM
 POLARIZATION
 MODEL paint LAMBERTIAN 0.6
@@ -435,13 +429,28 @@ TRACE CAMERA fpa AIM ball
 EXPORT fpa 'cam.npy'
 EXPORT fpa 'cam.npy' STOKES
 """
+
+
+def test_camera_trace_without_stokes_gives_no_stokes_images(tmp_path, capsys):
+    """TRACE CAMERA under POLARIZATION gives the polarization-correct I image (test_camera_image.py checks it
+    against the forward trace); Q, U and V need TRACE CAMERA ... STOKES (six traces behind analyzers), so EXPORT
+    ... STOKES after a plain one is a run-time error at its line that names the fix, not a wrong picture; and
+    STOKES without POLARIZATION is refused before anything runs."""
+    from irtlang.cli import main
+
     f = Path(tmp_path) / "cam.inr"
-    f.write_text(text)
+    f.write_text(_CAMERA_TEXT)
     code = main(["run", str(f), "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err
-    assert code == 1 and "STOKES after TRACE CAMERA" in err and "Traceback" not in err, err
+    assert code == 1 and "STOKES after TRACE CAMERA without STOKES" in err and "TRACE CAMERA ... STOKES" in err
+    assert "Traceback" not in err, err
     assert "cam.inr:19:" in err
     assert (tmp_path / "out" / "cam.npy").exists()
+    f.write_text(_CAMERA_TEXT.replace("POLARIZATION\n", "").replace("AIM ball", "AIM ball STOKES"))
+    code = main(["run", str(f), "--out", str(tmp_path / "out2")])
+    err = capsys.readouterr().err
+    assert code == 2 and "cam.inr:16:" in err and "STOKES needs a polarized trace" in err, err
+    assert "put POLARIZATION before the TRACE" in err and "Traceback" not in err
 
 
 def test_spectrum_of_stokes(tmp_path, capsys):
