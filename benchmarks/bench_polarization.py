@@ -11,7 +11,10 @@ Scenes (the polarization tests' own, tests/physics/test_polarization.py):
 * the Earth: the first frame's forward trace of examples_scripts/earth.inr (800 Sun rays per line, 295 lines),
   scalar and with ``--set polarization=1`` (Stokes vectors through the 30 refracting shells, the Rayleigh slabs,
   the glint and the telescope; the fpa's Stokes maps on its 128 x 128 grid).  Each run is run_trace alone
-  (pack, trace, reduction), the scene's models packed once before.
+  (pack, trace, reduction), the scene's models packed once before;
+* camera-side Stokes images: examples_scripts/camera_cassegrain.inr (the glint ocean under a Rayleigh slab,
+  through a quarter-wave retarder), ``TRACE CAMERA ... STOKES`` (six traces behind analyzers) against the plain
+  polarized camera trace (I only), the whole ``irt run`` timed, with the images' median standard errors.
 Ratio: the polarized trace's time over the scalar trace's (best of the repeats, kernels compiled first).  The
 polarized layer's I also differs from the scalar one: the scalar code's error at that geometry is reported
 (ORACLES.md: up to about 10 % on the tables' grid).
@@ -85,6 +88,29 @@ def _timed(text):
     return res, time.perf_counter() - t0
 
 
+def _camera(stokes: bool, rays: int = 16):
+    """(seconds, median over the lit pixels of the standard errors of I, and of Q, U, V if any, over I)."""
+    import tempfile
+
+    import numpy as np
+
+    from irtlang.cli import main
+
+    out = Path(tempfile.mkdtemp()) / "run"
+    args = ["run", str(HERE.parent / "examples_scripts" / "camera_cassegrain.inr"), "--out", str(out), "--quiet"]
+    for kv in ("scene='slab'", "retarder=30", f"camera_rays={rays}", f"stokes={int(stokes)}", "polarized=1"):
+        args += ["--set", kv]
+    t0 = time.perf_counter()
+    assert main(args) == 0
+    t = time.perf_counter() - t0
+    i = np.load(out / ("image_I.npy" if stokes else "image.npy"))
+    lit = i > 0.05 * i.max()
+    comps = "IQUV" if stokes else "I"
+    se = {k: float(np.median(np.load(out / (f"image_{k}.stderr.npy" if stokes else "image.stderr.npy"))[lit]
+                             / i[lit])) for k in comps}
+    return t, se
+
+
 def _texts(n_layer: int, n_plate: int):
     import test_polarization as T
 
@@ -125,6 +151,11 @@ def run(n_layer: int = 2_000_000, n_plate: int = 4_000_000, repeat: int = 3, qui
         runs = [_timed(earth[True]) for _ in range(repeat)]
         tp = min(t for _, t in runs)
         out["earth"] = {"scalar_s": ts, "polar_s": tp, "ratio": tp / ts, "rays": runs[0][0].n_traced}
+        _camera(False, 1)                   # compile
+        _camera(True, 1)
+        tc, sc = min((_camera(False) for _ in range(repeat)), key=lambda x: x[0])
+        ts6, s6 = min((_camera(True) for _ in range(repeat)), key=lambda x: x[0])
+        out["camera"] = {"plain_s": tc, "stokes_s": ts6, "ratio": ts6 / tc, "plain_se": sc, "stokes_se": s6}
     return out
 
 
@@ -139,7 +170,13 @@ def report(r: dict) -> str:
         f"{pl['polar_s']:.2f} s | {pl['ratio']:.2f} |"] + ([
         f"| the Earth, one frame's forward trace (earth.inr) | {r['earth']['rays']:,} Sun rays | "
         f"{r['earth']['scalar_s']:.2f} s | "
-        f"{r['earth']['polar_s']:.2f} s | {r['earth']['ratio']:.2f} |"] if "earth" in r else []) + ["",
+        f"{r['earth']['polar_s']:.2f} s | {r['earth']['ratio']:.2f} |"] if "earth" in r else []) + ([
+        "", "| camera-side (camera_cassegrain.inr, slab, 16 rays per pixel and line) | plain polarized TRACE CAMERA "
+        "(I) | TRACE CAMERA ... STOKES (I, Q, U, V) | ratio |", "|---|---|---|---|",
+        f"| whole run | {r['camera']['plain_s']:.2f} s | {r['camera']['stokes_s']:.2f} s | "
+        f"{r['camera']['ratio']:.2f} |",
+        "| median standard error over I, lit pixels | I: " + f"{r['camera']['plain_se']['I']:.3f} | " +
+        ", ".join(f"{k}: {v:.3f}" for k, v in r["camera"]["stokes_se"].items()) + " | |"] if "camera" in r else []) + ["",
         f"The layer's I at (albedo 0.25, mu0 0.92, mu 0.64, phi 90): Coulson-Dave-Sekera (Natraj et al. 2009) "
         f"{lay['table']:.5f}; polarized {lay['polar_I']:.5f} +/- {lay['polar_se']:.5f} "
         f"({100 * (lay['polar_I'] / lay['table'] - 1):+.2f} %); scalar {lay['scalar_I']:.5f} +/- "
