@@ -253,7 +253,7 @@ class ReplSession:
 
     def _run(self, src: Source, prog: A.Program) -> str:
         from .engine import MissingCapability, RuntimeFailure
-        from .lang.interp import StopScript
+        from .lang.interp import StepFailed, StopScript
 
         it = self.interp
         out: list[str] = []
@@ -271,6 +271,8 @@ class ReplSession:
                                             f"(v{__version__}) does not have yet"))
         except RuntimeFailure as e:
             it.diags.add(Diagnostic(e.span, e.message))
+        except StepFailed as e:
+            it.diags.extend(e.error.diagnostics)
         except KeyboardInterrupt:
             self._out.append("interrupted")
         except RecursionError:

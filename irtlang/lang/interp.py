@@ -25,7 +25,7 @@ from ..core.units import LENGTH, NONE, UNITS, Quantity, dim_name
 from ..limits import Limits, current as current_limits
 from ..model import scene as M
 from . import commands
-from .state import State, StopScript, _SurfaceBlock  # noqa: F401  (re-exported: irtlang.lang.interp.State)
+from .state import State, StepFailed, StopScript, _SurfaceBlock  # noqa: F401  (re-exported: irtlang.lang.interp.State)
 
 MAX_LOOP_ITERATIONS = 10_000_000
 MAX_CALL_DEPTH = 64
@@ -87,6 +87,9 @@ class Interpreter(BindContext):
             self.finish()
         except StopScript:
             pass
+        except StepFailed as e:        # a step's run stopped on bad input: report it with what came before
+            self.diags.extend(e.error.diagnostics)
+            raise IrtError(self.diags.items) from None
 
     def preset(self, assignments) -> None:
         """Variables given on the command line (`irt run FILE --set name=value`), before the script runs; the
@@ -439,7 +442,10 @@ class Interpreter(BindContext):
         s = M.Step(kind, M.frozen_params(params), self.state.scene() if with_scene else None, span)
         self.steps.append(s)
         if self.engine is not None:
-            self.engine.run_step(s, self)
+            try:
+                self.engine.run_step(s, self)
+            except IrtError as e:
+                raise StepFailed(e) from None
 
     # ------------------------------------------------------------ containment and limits of steps
     def _arg_span(self, text: str, default: Span) -> Span:

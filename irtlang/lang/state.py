@@ -15,6 +15,15 @@ class StopScript(Exception):
     """STOP: ends the script here."""
 
 
+class StepFailed(Exception):
+    """A step's run found an input error (an IrtError from the engine): the run stops there, as after a run-time
+    failure, instead of going on to steps that would use what the failed one should have made."""
+
+    def __init__(self, error):
+        super().__init__(str(error))
+        self.error = error
+
+
 @dataclass
 class _SurfaceBlock:
     span: Span

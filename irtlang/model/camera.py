@@ -130,6 +130,10 @@ def camera_scene(scene: M.Scene, params: dict, span: Span, analyzer: tuple = ())
     # the analyzer: planes parallel to the detector, k + 1 steps of `gap` in front of it on the instrument's side
     # (the rays start eps = 1e-9 size off the detector; a self-hit tolerance is 1e-9 of the coordinates)
     gap = 1e-6 * max(hx, hy, *(abs(t) for t in frame.T))
+    if analyzer and len(analyzer) * gap > 1e-3 * min(hx, hy):
+        raise error(span, f"TRACE CAMERA {cam.name} ... STOKES: the camera lies too far from its frame's origin for "
+                    f"analyzers on its face ({len(analyzer) * gap:.3g} m in front of a detector {2 * hx:.3g} m wide)",
+                    "put the instrument in a GROUP and PLACE it: its own coordinates then stay small")
     n_obj = (surf.frame.R[2], surf.frame.R[5], surf.frame.R[8])      # the detector's normal, object frame
     medium = cam.interface.front if side > 0 else cam.interface.back
     for k, el in enumerate(analyzer):

@@ -451,6 +451,12 @@ def test_camera_trace_without_stokes_gives_no_stokes_images(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and "cam.inr:16:" in err and "STOKES needs a polarized trace" in err, err
     assert "put POLARIZATION before the TRACE" in err and "Traceback" not in err
+    # analyzers a hair in front of a camera far from its frame's origin would not be a hair: refused, with the fix
+    f.write_text(_CAMERA_TEXT.replace("PLANE Z 0 RECT", "PLANE Z -1e5 RECT").replace("AIM ball", "AIM ball STOKES"))
+    code = main(["run", str(f), "--out", str(tmp_path / "out3")])
+    err = capsys.readouterr().err
+    assert code == 2 and "cam.inr:17:" in err and "too far from its frame's origin" in err, err
+    assert "GROUP" in err and "Traceback" not in err
 
 
 def test_spectrum_of_stokes(tmp_path, capsys):
