@@ -6,7 +6,6 @@ SELECT).  Results are bitwise identical for any thread count and batch size (see
 """
 from __future__ import annotations
 
-import math
 import sys
 import time
 from dataclasses import dataclass
@@ -16,6 +15,7 @@ import numpy as np
 from .compile.pack import Packed, pack
 from .core.stats import standard_error  # noqa: F401  (re-exported: irtlang.tracer.standard_error)
 from .compile.specialize import kernel_module
+from .kernels.layout import Detectors, Media, Objects, Records, Scatter, Settings, Sources, Surfaces, Tallies
 
 HISTORY_CAP = 16
 
@@ -47,34 +47,12 @@ class TraceResult:
 
 
 def _object_bounds(pk: Packed) -> tuple[np.ndarray, np.ndarray]:
-    """World bounding sphere of each object (for TOWARD); radius inf for unbounded surfaces."""
+    """World bounding sphere of each object (for TOWARD), from its surfaces' (their plugins' ``bounds``);
+    radius inf for an object with an unbounded surface."""
     nO = len(pk.object_names)
     spheres = [[] for _ in range(nO)]
     for j in range(len(pk.s_kind)):
-        k, p, a = pk.s_kind[j], pk.s_par[j], pk.s_ap[j]
-        if k == 0 or k == 1:
-            r = {0: np.inf, 1: a[0] if pk.s_ap_kind[j] == 2 else math.hypot(a[0], a[1]) if pk.s_ap_kind[j] in (1, 4)
-                 else a[1]}.get(int(pk.s_ap_kind[j]) and 1, np.inf)
-            if pk.s_ap_kind[j] == 0:
-                r = np.inf
-            c = np.zeros(3)
-            if k == 1 and np.isfinite(r):
-                cc, kk = p[0], p[1]
-                arg = 1 - (1 + kk) * cc * cc * r * r
-                sag = cc * r * r / (1 + math.sqrt(max(arg, 0.0)))
-                c = np.array([0.0, 0.0, sag / 2])
-                r = math.hypot(r, sag / 2)
-        elif k == 2:
-            c, r = np.zeros(3), p[0]
-        elif k == 3:
-            c, r = np.zeros(3), max(p[:3])
-        elif k == 4:
-            c, r = np.array([0.0, 0.0, 0.5 * (p[0] + p[2])]), math.hypot(max(p[1], p[3]), 0.5 * abs(p[2] - p[0]))
-        else:
-            m = pk.s_mesh[j]
-            tris = pk.bvh_tris[pk.m_tri_off[m]:pk.m_tri_off[m] + pk.m_tri_n[m]].reshape(-1, 3)
-            lo, hi = tris.min(0), tris.max(0)
-            c, r = 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
+        c, r = np.asarray(pk.s_bounds[j, :3], float), float(pk.s_bounds[j, 3])
         R = pk.s_R[j].reshape(3, 3)
         wc = R @ c + pk.s_Th[j] + pk.s_Tl[j]
         spheres[pk.s_obj[j]].append((wc, r))
@@ -173,6 +151,20 @@ class TraceContext:
                          else np.zeros(0, np.int64))
         self.cap = 2 * self.mod.CHUNK
         self._dep_buf = None
+        # the kernel's argument structures (irtlang.kernels.layout), built once per context
+        self.surfaces = Surfaces(self.s_f, self.s_i, self.mesh_i, pk.bvh_bmin, pk.bvh_bmax, pk.bvh_child,
+                                 pk.bvh_count, pk.bvh_tris, pk.bvh_ids, pk.bvh_fn)
+        self.objects = Objects(pk.o_itf, pk.o_coat, pk.o_back, pk.o_front, pk.o_det, pk.o_pol, self.o_bc, self.o_br,
+                               pk.o_sc_first, pk.o_sc_cnt)
+        self.scatter = Scatter(pk.sp_kind, pk.sp_model, pk.sp_map, pk.sp_cls_off, pk.sp_cls_n, pk.sp_rays, pk.sp_tgt,
+                               pk.cls_models, pk.map_data, pk.map_off, pk.map_nlat, pk.map_nlon, self.mod_kind,
+                               pk.mod_P, pk.mod_slab)
+        self.media = Media(pk.med_n, pk.med_alpha, pk.med_row, pk.med_sig, pk.med_alb, pk.med_g, pk.med_phase,
+                           pk.med_depol, pk.med_tgt, pk.med_nee, pk.coat_R, pk.coat_T)
+        self.detectors = Detectors(pk.d_nx, pk.d_ny, pk.d_ext, self.d_off, pk.d_qe, pk.d_start)
+        self.sources = Sources(pk.src_kind, pk.src_dir, pk.src_par, pk.src_R, pk.src_Th, pk.src_Tl, pk.src_n,
+                               pk.src_off, pk.src_w, pk.src_random, pk.src_toward, pk.src_pts, pk.src_pts_off,
+                               pk.src_lmap)
         self.rcap = 2 * self.mod.CHUNK if records else 1
 
     def run_batch(self, first: int, n: int, reuse: bool = False) -> BatchTally:
@@ -198,20 +190,13 @@ class TraceContext:
                        flags=np.zeros((nch, rc), np.uint32), history=np.zeros((nch, rc, H), np.int32),
                        opl=np.zeros((nch, rc)), start=np.zeros((nch, rc, 2)))
             rec_n = np.zeros(nch, np.int64)
-            self.mod.trace_batch(first, n, self.total, self.seed, self.level, self.halt, pk.nee_cut, pk.r_importance,
-                                 self.s_f, self.s_i, self.mesh_i, pk.bvh_bmin, pk.bvh_bmax, pk.bvh_child,
-                                 pk.bvh_count, pk.bvh_tris, pk.bvh_ids, pk.bvh_fn, pk.o_itf, pk.o_coat, pk.o_back,
-                                 pk.o_front, pk.o_det, pk.o_pol, self.o_bc, self.o_br, pk.o_sc_first, pk.o_sc_cnt, pk.sp_kind,
-                                 pk.sp_model, pk.sp_map, pk.sp_cls_off, pk.sp_cls_n, pk.sp_rays, pk.sp_tgt,
-                                 pk.cls_models, pk.map_data, pk.map_off, pk.map_nlat, pk.map_nlon, self.mod_kind,
-                                 pk.mod_P, pk.mod_slab, pk.med_n, pk.med_alpha, pk.med_row, pk.med_sig, pk.med_alb,
-                                 pk.med_g, pk.med_phase, pk.med_depol, pk.med_tgt, pk.med_nee, pk.coat_R, pk.coat_T,
-                                 pk.d_nx, pk.d_ny, pk.d_ext, self.d_off, pk.d_qe, pk.d_start, pk.src_kind, pk.src_dir,
-                                 pk.src_par, pk.src_R, pk.src_Th, pk.src_Tl, pk.src_n, pk.src_off, pk.src_w,
-                                 pk.src_random, pk.src_toward, pk.src_pts, pk.src_pts_off, pk.src_lmap, led, inc_sq, dep_idx,
-                                 dep_w, dep_n, rec["position"], rec["direction"], rec["flux"], rec["line"],
-                                 rec["source"], rec["object"], rec["events"], rec["flags"], rec["history"],
-                                 rec["opl"], rec["start"], rec_n)
+            self.mod.trace_batch(
+                Settings(int(first), int(n), int(self.total), int(self.seed), int(self.level), float(self.halt),
+                         float(pk.nee_cut), int(pk.r_importance)),
+                self.surfaces, self.objects, self.scatter, self.media, self.detectors, self.sources,
+                Tallies(led, inc_sq, dep_idx, dep_w, dep_n),
+                Records(rec["position"], rec["direction"], rec["flux"], rec["line"], rec["source"], rec["object"],
+                        rec["events"], rec["flags"], rec["history"], rec["opl"], rec["start"], rec_n))
             ok = True
             if np.any(dep_n < 0):
                 self.cap *= 4   # a chunk overflowed its deposit list: trace the batch again with more room

@@ -5,17 +5,9 @@ an object 0.18 AU away keeps sub-nanometre placement, so a telescope far from th
 as it does at the origin (DESIGN.md, "Precision across scales").  Compositions of group placements are
 summed with ``math.fsum`` so the pair is the exact sum to double-double precision.
 
-Kind codes (kept in one place, used by the kernels):
-  surfaces  SK_PLANE SK_CONIC SK_SPHERE SK_ELLIPSOID SK_TUBE SK_MESH
-  apertures AP_NONE AP_RECT AP_DISK AP_ANNULUS AP_ELLIPSE
-  interface IF_ABSORB IF_REFLECT IF_SPLIT (R/T table) IF_FRESNEL (R and T from the two media) IF_POLARIZER
-            IF_RETARDER (ideal elements of a polarized trace; o_pol: axis angle, retardance in radians)
-            IF_METAL (a COATING ... METAL: Fresnel reflection with the complex index n + i k held in coat_R, coat_T)
-  coatings coat_R, coat_T (3, C, L): [0] R and T, (Rs + Rp)/2 and (Ts + Tp)/2 (a METAL: n and k); [1] (Rs - Rp)/2 and
-            (Ts - Tp)/2; [2] the retardances delta_r, delta_t (radians) of a COATING ... POLARIZED ([1], [2] zero
-            for the others: Rs = Rp, no retardance)
-  sources   SRC_GRID_RECT SRC_GRID_DISK SRC_SPHERE SRC_DISK SRC_POINT
-  direction DIR_COLLIMATED DIR_DIVERGE DIR_CONVERGE DIR_FIELD DIR_LAMBERT
+Kind codes, table columns and the kernel's argument structures are defined once, in
+``irtlang.kernels.layout`` (surface codes: each kind's index in ``irtlang.plugins.surfaces.REGISTRY``).  Each
+surface plugin packs its own parameters (``pack``, ``bounds``, ``size``).
 """
 from __future__ import annotations
 
@@ -28,15 +20,17 @@ from ..io.spectra import band_edges
 from ..core.diagnostics import Span, error
 from ..model import scene as M
 
-SK_PLANE, SK_CONIC, SK_SPHERE, SK_ELLIPSOID, SK_TUBE, SK_MESH = range(6)
-SURFACE_CODES = {"PLANE": SK_PLANE, "CONIC": SK_CONIC, "SPHERE": SK_SPHERE, "ELLIPSOID": SK_ELLIPSOID,
-                 "TUBE": SK_TUBE, "MESH": SK_MESH}
-AP_NONE, AP_RECT, AP_DISK, AP_ANNULUS, AP_ELLIPSE = range(5)
-APERTURE_CODES = {None: AP_NONE, "RECT": AP_RECT, "DISK": AP_DISK, "ANNULUS": AP_ANNULUS, "ELLIPSE": AP_ELLIPSE}
-IF_ABSORB, IF_REFLECT, IF_SPLIT, IF_FRESNEL, IF_POLARIZER, IF_RETARDER, IF_METAL = range(7)
-SRC_GRID_RECT, SRC_GRID_DISK, SRC_SPHERE, SRC_DISK, SRC_POINT = range(5)
-DIR_COLLIMATED, DIR_DIVERGE, DIR_CONVERGE, DIR_FIELD, DIR_LAMBERT = range(5)
-N_TERMINAL_ROWS = 4   # EMITTED, ESCAPED, HALTED, LOST (after the objects and the absorbing media)
+from ..kernels.layout import (AP_ANNULUS, APERTURE_CODES,  # noqa: F401
+                              DIR_COLLIMATED, DIR_CONVERGE, DIR_DIVERGE, DIR_FIELD, DIR_LAMBERT, IF_ABSORB,
+                              IF_FRESNEL, IF_METAL, IF_POLARIZER, IF_REFLECT, IF_RETARDER, IF_SPLIT, N_ASPH, N_PAR,
+                              SF_AP, SF_ASPH, SF_BS, SF_HOLE, SF_N, SF_PAR, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
+                              SI_AXIS, SI_FAM, SI_FIDX, SI_KIND, SI_MESH, SI_N, SI_NASPH, SI_OBJ, SAMPLE_SPECTRAL,
+                              SAMPLE_STRATIFIED)
+from ..plugins.sources import EMITTER_CODES
+from ..plugins.surfaces import CODES as SURFACE_CODES, REGISTRY as SURFACES
+
+SK_PLANE, SK_CONIC, SK_SPHERE, SK_ELLIPSOID = (SURFACE_CODES[k] for k in ("PLANE", "CONIC", "SPHERE", "ELLIPSOID"))
+from ..kernels.layout import N_TERMINAL_ROWS  # noqa: E402  EMITTED, ESCAPED, HALTED, LOST: the last rows
 
 
 class MissingFeature(Exception):
@@ -171,6 +165,7 @@ class Packed:
                                                     # (filter names, (L, B) transmission matrix)
     d_start: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))  # (D,) 1: binned by start point
     src_lmap: np.ndarray = field(default_factory=lambda: np.zeros((0, 1), np.int64))  # (S, L) traced lines, in order
+    s_bounds: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))   # (n, 4) surface_bounds (unpadded)
 
     def _hole_bounds(self) -> np.ndarray:
         """(n, 4) per surface: the kernel's central-hole cull (trace_kernel SF_HOLE) for a plane or a conic
@@ -205,23 +200,25 @@ class Packed:
         return out
 
     def surface_tables(self):
-        """(s_f, s_i, mesh_i): the surface columns as the kernel reads them (see trace_kernel SF_*/SI_*)."""
+        """(s_f, s_i, mesh_i): the surface columns as the kernel reads them (irtlang.kernels.layout SF_*, SI_*)."""
         n = len(self.s_kind)
-        f = np.zeros((n, 40))
-        f[:, 0:6] = self.s_par
-        f[:, 6:14] = self.s_asph
-        f[:, 14:16] = self.s_ap
-        f[:, 16:25] = self.s_R
-        f[:, 25:28] = self.s_Th
-        f[:, 28:31] = self.s_Tl
-        f[:, 31] = self.s_size
-        f[:, 32:36] = self.s_bs
-        f[:, 36:40] = self._hole_bounds()
+        f = np.zeros((n, SF_N))
+        f[:, SF_PAR:SF_PAR + N_PAR] = self.s_par
+        f[:, SF_ASPH:SF_ASPH + N_ASPH] = self.s_asph
+        f[:, SF_AP:SF_AP + 2] = self.s_ap
+        f[:, SF_R:SF_R + 9] = self.s_R
+        f[:, SF_TH:SF_TH + 3] = self.s_Th
+        f[:, SF_TL:SF_TL + 3] = self.s_Tl
+        f[:, SF_SIZE] = self.s_size
+        f[:, SF_BS:SF_BS + 4] = self.s_bs
+        f[:, SF_HOLE:SF_HOLE + 4] = self._hole_bounds()
         # SI_AXIS: the surface's rotation is exactly the identity (the kernel then skips the frame rotation)
         axis = np.all(np.asarray(self.s_R, float).reshape(n, 9) == np.eye(3).ravel(), axis=1) if n else np.zeros(0, bool)
         fam, fidx = shell_families(self)
-        i = np.stack([self.s_kind, self.s_nasph, self.s_ap_kind, self.s_mesh, self.s_obj, axis, fam, fidx],
-                     axis=1).astype(np.int64)
+        i = np.zeros((n, SI_N), np.int64)
+        for col, v in ((SI_KIND, self.s_kind), (SI_NASPH, self.s_nasph), (SI_APK, self.s_ap_kind),
+                       (SI_MESH, self.s_mesh), (SI_OBJ, self.s_obj), (SI_AXIS, axis), (SI_FAM, fam), (SI_FIDX, fidx)):
+            i[:, col] = v
         m = np.stack([self.m_node_off, self.m_node_n, self.m_tri_off, self.m_tri_n], axis=1).astype(np.int64) \
             if len(self.m_node_n) else np.zeros((1, 4), np.int64)
         return np.ascontiguousarray(f), np.ascontiguousarray(i), m
@@ -252,9 +249,9 @@ def shell_families(pk) -> tuple:
     groups: dict = {}
     for j in range(n):
         k = int(pk.s_kind[j])
-        if k not in (2, 3) or pk.s_ap_kind[j] != 0:
+        if k not in (SK_SPHERE, SK_ELLIPSOID) or pk.s_ap_kind[j] != 0:
             continue
-        axes = (pk.s_par[j][0],) * 3 if k == 2 else tuple(pk.s_par[j][:3])
+        axes = (pk.s_par[j][0],) * 3 if k == SK_SPHERE else tuple(pk.s_par[j][:3])
         c = np.asarray(pk.s_R[j], float).ravel().tolist() + list(pk.s_Th[j]) + list(pk.s_Tl[j])
         groups.setdefault(tuple(c), []).append((axes, j))
     nf = 0
@@ -346,58 +343,27 @@ def world_frame(scene: M.Scene, local: M.Transform, group: str | None):
     return R, Th, Tl
 
 
-def _local_bounds(s: M.Surface) -> tuple:
-    """A sphere (cx, cy, cz, r) in the surface's local frame that holds all of it; r = inf if unbounded."""
-    p = s.params
-    if s.kind == "SPHERE":
-        return (0.0, 0.0, 0.0, p["radius"] * (1 + 1e-9))
-    if s.kind == "ELLIPSOID":
-        return (0.0, 0.0, 0.0, max(p["a"], p["b"], p["c"]) * (1 + 1e-9))
-    if s.kind == "TUBE":
-        zc = 0.5 * (p["z1"] + p["z2"])
-        return (0.0, 0.0, zc, math.hypot(max(p["r1"], p["r2"]), 0.5 * abs(p["z2"] - p["z1"])) * (1 + 1e-9))
-    if s.kind == "MESH":
-        v = p["vertices"]
-        lo, hi = v.min(0), v.max(0)
-        c = 0.5 * (lo + hi)
-        return (*c, 0.5 * float(np.linalg.norm(hi - lo)) * (1 + 1e-9) + 1e-12)
-    if s.aperture is None:
-        return (0.0, 0.0, 0.0, math.inf)
-    from ..plugins.surfaces._aperture import outer_radius
+def surface_bounds(s: M.Surface) -> tuple:
+    """The local sphere (cx, cy, cz, r) that holds the surface (its plugin's ``bounds``); r = inf if unbounded."""
+    return tuple(float(x) for x in SURFACES[s.kind].bounds(s))
 
-    r = outer_radius(s.aperture)
-    if s.kind == "PLANE":
-        return (0.0, 0.0, 0.0, r * (1 + 1e-9))
-    c, k, a = p["c"], p["k"], p["asphere"]
-    # the sag is monotonic in r on the vertex sheet: its extremes over the aperture are at 0 and r
-    arg = 1 - (1 + k) * c * c * r * r
-    sag = c * r * r / (1 + math.sqrt(max(arg, 0.0))) + sum(ai * r ** (4 + 2 * i) for i, ai in enumerate(a))
-    if a:
-        rs = np.linspace(0.0, r, 257)
-        arg = 1 - (1 + k) * c * c * rs * rs
-        sags = c * rs * rs / (1 + np.sqrt(np.maximum(arg, 0.0))) + sum(ai * rs ** (4 + 2 * i) for i, ai in enumerate(a))
-        lo, hi = float(sags.min()), float(sags.max())
-    else:
-        lo, hi = min(0.0, sag), max(0.0, sag)
-    zc = 0.5 * (lo + hi)
-    return (0.0, 0.0, zc, math.hypot(r, 0.5 * (hi - lo)) * (1 + 1e-6) + 1e-12)
+
+def _local_bounds(s: M.Surface) -> tuple:
+    """surface_bounds widened by the plugin's BOUNDS_PAD: the kernel's cull."""
+    cx, cy, cz, r = surface_bounds(s)
+    rel, ab = getattr(SURFACES[s.kind], "BOUNDS_PAD", (1e-9, 0.0))
+    return (cx, cy, cz, r * (1 + rel) + ab)
 
 
 def _surface_size(s: M.Surface) -> float:
-    p = s.params
     if s.aperture is not None:
         from ..plugins.surfaces._aperture import outer_radius
 
         return outer_radius(s.aperture)
-    return {"SPHERE": lambda: p["radius"], "ELLIPSOID": lambda: max(p["a"], p["b"], p["c"]),
-            "TUBE": lambda: max(p["r1"], p["r2"], abs(p["z2"] - p["z1"])),
-            "MESH": lambda: float(np.ptp(p["vertices"], axis=0).max()),
-            "CONIC": lambda: abs(1.0 / p["c"]) if p["c"] else 1.0, "PLANE": lambda: 1.0}[s.kind]()
+    return float(SURFACES[s.kind].size(s))
 
 
 def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Packed:
-    from ..kernels.bvh import build_bvh
-
     L = scene.n_lines
     lines = np.asarray(scene.wavelengths_nm, float)
     widths = (np.diff(band_edges(lines), axis=1)[:, 0] if L > 1 else np.ones(1))
@@ -584,8 +550,8 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
     nS = len(rows)
     s_obj = np.zeros(nS, np.int32)
     s_kind = np.zeros(nS, np.int32)
-    s_par = np.zeros((nS, 6))
-    s_asph = np.zeros((nS, 8))
+    s_par = np.zeros((nS, N_PAR))
+    s_asph = np.zeros((nS, N_ASPH))
     s_nasph = np.zeros(nS, np.int32)
     s_ap_kind = np.zeros(nS, np.int32)
     s_ap = np.zeros((nS, 2))
@@ -595,37 +561,31 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
     s_size = np.zeros(nS)
     s_mesh = np.full(nS, -1, np.int32)
     s_bs = np.zeros((nS, 4))
+    s_bounds = np.zeros((nS, 4))
     for j, (i, s, R, Th, Tl) in enumerate(rows):
         s_obj[j] = i
         s_kind[j] = SURFACE_CODES[s.kind]
-        p = s.params
-        if s.kind == "CONIC":
-            s_par[j, :2] = p["c"], p["k"]
-            a = p["asphere"]
-            if len(a) > 8:
-                raise error(s.span, "at most 8 ASPHERE terms (a4 .. a18)")
-            s_asph[j, :len(a)] = a
-            s_nasph[j] = len(a)
-            feats.conic = True
-        elif s.kind == "SPHERE":
-            s_par[j, 0] = p["radius"]
-            feats.quadric = True
-        elif s.kind == "ELLIPSOID":
-            s_par[j, :3] = p["a"], p["b"], p["c"]
-            feats.quadric = True
-        elif s.kind == "TUBE":
-            s_par[j, :4] = p["z1"], p["r1"], p["z2"], p["r2"]
-            feats.quadric = True
-        elif s.kind == "MESH":
+        plug = SURFACES[s.kind]
+        if plug.FEATURE:
+            setattr(feats, plug.FEATURE, True)
+        sp = plug.pack(s)
+        par, a = sp.get("par", ()), sp.get("asph", ())
+        if len(par) > N_PAR or len(a) > N_ASPH:
+            raise error(s.span, f"{s.kind} packs {len(par)} parameters and {len(a)} asphere terms: at most {N_PAR} "
+                        f"and {N_ASPH}")
+        s_par[j, :len(par)] = par
+        s_asph[j, :len(a)] = a
+        s_nasph[j] = len(a)
+        if sp.get("mesh") is not None:
             s_mesh[j] = len(meshes)
-            meshes.append(build_bvh(p["vertices"], p["faces"]))
-            feats.mesh = True
+            meshes.append(sp["mesh"])
         if s.aperture is not None:
             s_ap_kind[j] = APERTURE_CODES[s.aperture.kind]
             s_ap[j, :len(s.aperture.params)] = s.aperture.params
         s_R[j], s_Th[j], s_Tl[j] = R, Th, Tl
         s_size[j] = _surface_size(s)
         s_bs[j] = _local_bounds(s)
+        s_bounds[j] = surface_bounds(s)
         if max(abs(x) for x in Th) > 1e6:
             feats.precise = True
 
@@ -683,7 +643,7 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
                   map_data, map_off, map_nlat, map_nlon,
                   mod_kind, mod_P, mod_slab, [scene.models[m].name for m in used_models],
                   d_obj, d_nx, d_ny, d_ext, d_qe, [scene.objects[obj_keys[i]].name for i, _ in det_rows],
-                  d_filters=d_filters, d_start=d_start, nee_cut=float(getattr(scene, 'importance_cut', 0.0)), **src)
+                  d_filters=d_filters, d_start=d_start, s_bounds=s_bounds, nee_cut=float(getattr(scene, 'importance_cut', 0.0)), **src)
     feats.shells = bool(np.any(shell_families(pk)[0] >= 0))
     return pk
 
@@ -712,9 +672,9 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
             # camera-side (adjoint) rays: s x s stratified points per pixel of the camera's window, Lambertian
             # toward the aim object, weighted by pi A_pix L_light(line) / s^2 (irtlang/model/camera.py)
             pts_off.append(npts)
-            out["src_kind"][i] = SRC_GRID_RECT
+            out["src_kind"][i] = EMITTER_CODES["GRID RECT"]
             out["src_dir"][i] = DIR_LAMBERT
-            out["src_random"][i] = 2
+            out["src_random"][i] = SAMPLE_STRATIFIED
             par[:4] = p["extent"]
             par[4:6] = p["nx"] * p["sub"], p["ny"] * p["sub"]
             par[8] = p["side"]
@@ -739,7 +699,7 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
                 npts += len(rows)
                 K = int(p["spectral"])
                 par[9], par[10] = len(rows), K
-                out["src_random"][i] = 3
+                out["src_random"][i] = SAMPLE_SPECTRAL
                 wl = np.where(pmf > 0, wl / np.where(pmf > 0, pmf, 1.0) / K, 0.0)
                 nl = K
             else:
@@ -758,13 +718,13 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
             g, d = p["grid"], p["direction"]
             frame = axis_frame(g["axis"], g["position"])
             if kind.startswith("GRID RECT"):
-                out["src_kind"][i] = SRC_GRID_RECT
+                out["src_kind"][i] = EMITTER_CODES["GRID RECT"]
                 par[:4] = g["x_min"], g["x_max"], g["y_min"], g["y_max"]
                 par[4:6] = g["nx"], g["ny"]
                 n = g["nx"] * g["ny"]
                 area = (g["x_max"] - g["x_min"]) * (g["y_max"] - g["y_min"])
             else:
-                out["src_kind"][i] = SRC_GRID_DISK
+                out["src_kind"][i] = EMITTER_CODES["GRID DISK"]
                 par[0] = g["radius"]
                 area = math.pi * g["radius"] ** 2
                 if g["random"]:
@@ -794,17 +754,17 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
             pts_off.append(npts)
             out["src_dir"][i] = DIR_LAMBERT
             if kind == "EMITTING SPHERE":
-                out["src_kind"][i] = SRC_SPHERE
+                out["src_kind"][i] = EMITTER_CODES[kind]
                 frame = M.Transform(T=p["centre"])
                 par[0] = p["radius"]
                 area = SUN_AREA_1AU
             elif kind == "EMITTING DISK":
-                out["src_kind"][i] = SRC_DISK
+                out["src_kind"][i] = EMITTER_CODES[kind]
                 frame = axis_frame(p["axis"], p["position"])
                 par[0], par[1] = p["radius"], p["cone"]
                 area = math.pi * p["radius"] ** 2
             else:
-                out["src_kind"][i] = SRC_POINT
+                out["src_kind"][i] = EMITTER_CODES[kind]
                 frame = M.Transform(T=p["position"])
                 par[1] = p["cone"]
                 par[2:5] = p["axis"]

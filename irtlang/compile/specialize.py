@@ -53,6 +53,72 @@ def bsdf_dispatch(kinds) -> str:
             else:
                 lines += [f"    {cond} kind == {j}:", f"        return _{f}_{j}({_SIGS[f]})"]
     return "\n".join(lines) + "\n"
+
+
+_SURFACE_FUNCS = {"hit": ("S, j, ox, oy, oz, dx, dy, dz, tmin, leaving", "np.inf, np.inf, -1"),
+                  "normal": ("S, j, x, y, z, face", "0.0, 0.0, 1.0")}
+
+
+def surface_kinds(features: Features) -> list:
+    """The surface kinds a kernel for `features` dispatches over: those whose FEATURE flag is on (registry
+    order; a kind's code is its registry index)."""
+    from ..plugins.surfaces import REGISTRY
+
+    return [k for k, m in REGISTRY.items() if m.FEATURE is None or getattr(features, m.FEATURE)]
+
+
+def surface_dispatch(features: Features) -> str:
+    """Source of the kernel's surface dispatch (``_surface_hit``, ``_surface_normal``): one branch per kind in
+    ``surface_kinds``, on its code; an unknown code misses (no hit) and gets the local +z normal."""
+    from ..plugins.surfaces import CODES, REGISTRY
+
+    kinds = surface_kinds(features)
+    lines = []
+    for kd in kinds:
+        for f in _SURFACE_FUNCS:
+            lines.append(f"from {REGISTRY[kd].__name__} import {f} as _{f}_{CODES[kd]}")
+    for f, (sig, miss) in _SURFACE_FUNCS.items():
+        lines += ["", "", '@numba.njit(cache=True, inline="always")', f"def _surface_{f}(k, {sig}):"]
+        for kd in kinds:
+            lines += [f"    if k == {CODES[kd]}:", f"        return _{f}_{CODES[kd]}({sig})"]
+        lines.append(f"    return {miss}")
+    return "\n".join(lines) + "\n"
+
+
+def source_dispatch() -> str:
+    """Source of the kernel's source dispatch (``_source_emit``, ``_source_direction``, ``_source_lambert``,
+    ``_source_toward``) over every registered source kind (irtlang/plugins/sources/__init__.py)."""
+    from ..plugins.sources import EMITTER_CODES, REGISTRY
+
+    lines = ["from irtlang.plugins.sources._common import lambert as _lambert_default",
+             "from irtlang.plugins.sources._common import toward as _toward_default"]
+    emit = [(EMITTER_CODES[k], REGISTRY[k]) for k in EMITTER_CODES]
+    dirs = [m for m in REGISTRY.values() if hasattr(m, "DIRECTION_CODES")]
+    for code, m in emit:
+        for f in ("emit", "lambert", "toward"):
+            if hasattr(m, f):
+                lines.append(f"from {m.__name__} import {f} as _{f}_{code}")
+    for q, m in enumerate(dirs):
+        lines.append(f"from {m.__name__} import direction as _direction_{q}")
+    head = '@numba.njit(cache=True, inline="always")'
+    lines += ["", "", head, "def _source_emit(kind, SRC, s, q, u0, u1):"]
+    for code, m in emit:
+        lines += [f"    if kind == {code}:", f"        return _emit_{code}(SRC, s, q, u0, u1)"]
+    lines.append("    return 0.0, 0.0, 0.0, 0.0, 0.0, 1.0")
+    lines += ["", "", head, "def _source_direction(dk, SRC, s, x, y, z):"]
+    for q, m in enumerate(dirs):
+        cond = " or ".join(f"dk == {c}" for c in m.DIRECTION_CODES)
+        lines += [f"    if {cond}:", f"        return _direction_{q}(SRC, s, x, y, z)"]
+    lines.append("    return 0.0, 0.0, 1.0")
+    for f, sig in (("lambert", "SRC, s, u2, u3"), ("toward", "SRC, s, c, omega")):
+        lines += ["", "", head, f"def _source_{f}(kind, {sig}):"]
+        for code, m in emit:
+            if hasattr(m, f):
+                lines += [f"    if kind == {code}:", f"        return _{f}_{code}({sig})"]
+        lines.append(f"    return _{f}_default({sig})")
+    return "\n".join(lines) + "\n"
+
+
 _loaded: dict[str, object] = {}
 
 
@@ -64,10 +130,11 @@ def _kernel_dir() -> Path:
 
 
 def _sources_hash() -> str:
-    """Hash of every source a generated kernel depends on (kernels and scatter-model plugins)."""
+    """Hash of every source a generated kernel depends on (kernels, scatter-model, surface and source plugins)."""
     root = Path(__file__).resolve().parents[1]
     h = hashlib.sha256()
-    for p in sorted((root / "kernels").glob("*.py")) + sorted((root / "plugins" / "bsdfs").glob("*.py")):
+    for p in (sorted((root / "kernels").glob("*.py")) + sorted((root / "plugins" / "bsdfs").glob("*.py"))
+              + sorted((root / "plugins" / "surfaces").glob("*.py")) + sorted((root / "plugins" / "sources").glob("*.py"))):
         h.update(p.read_bytes())
     return h.hexdigest()[:12]
 
@@ -96,6 +163,12 @@ def kernel_module(features: Features):
     text = template
     for field, flag in _FLAGS.items():
         text = re.sub(rf"^{flag} = (True|False)$", f"{flag} = {bool(getattr(features, field))}", text, flags=re.M)
+    a = text.index("# ---- source dispatch")
+    b = text.index("# ---- end of source dispatch ----")
+    text = text[:a] + "# ---- source dispatch (generated) ----\n" + source_dispatch() + text[b:]
+    a = text.index("# ---- surface dispatch")
+    b = text.index("# ---- end of surface dispatch ----")
+    text = text[:a] + "# ---- surface dispatch (generated) ----\n" + surface_dispatch(features) + text[b:]
     a = text.index("# ---- bsdf dispatch")
     b = text.index("# ---- end of bsdf dispatch ----")
     text = text[:a] + "# ---- bsdf dispatch (generated) ----\n" + bsdf_dispatch(features.bsdf_kinds) + text[b:]
@@ -112,5 +185,6 @@ def kernel_module(features: Features):
     sys.modules[name] = mod
     spec.loader.exec_module(mod)
     mod.BSDF_KINDS = tuple(features.bsdf_kinds)   # the order of its BSDF dispatch
+    mod.SURFACE_KINDS = tuple(surface_kinds(features))
     _loaded[key] = mod
     return mod

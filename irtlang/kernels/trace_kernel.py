@@ -31,14 +31,19 @@ import math
 import numba
 import numpy as np
 
-from .bvh import hit_mesh
-from .geometry import (conic_normal, conic_normal_plain, hit_conic_plain, drop_leaving_root, two_prod, ellipsoid_normal, hit_conic, hit_ellipsoid, hit_plane, hit_sphere, hit_tube,
-                       in_annulus, in_disk, in_ellipse, in_rect, sphere_normal, tube_normal)
+from .geometry import in_annulus, in_disk, in_ellipse, in_rect, two_prod
+from .layout import (AP_ANNULUS, AP_DISK, AP_NONE, AP_RECT, C_ABS, C_INC, C_REF, C_SCA, C_TRA, DIR_COLLIMATED,
+                     DIR_LAMBERT, EV_A, EV_R, EV_S, EV_T, FL_ESCAPED, FL_HALTED, FL_LOST,
+                     FL_REFLECTED, FL_SCATTERED, FL_TRANSMITTED, IF_ABSORB, IF_FRESNEL, IF_METAL,
+                     IF_POLARIZER, IF_REFLECT, IF_RETARDER, IF_SPLIT, PHASE_HG, PHASE_RAYLEIGH,
+                     SAMPLE_SPECTRAL, SF_AP, SF_BS, SF_HOLE, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
+                     SI_AXIS, SI_FAM, SI_FIDX, SI_KIND, SI_OBJ, SPEC_CLASS_MAP, SPEC_FRACTION_MAP,
+                     SPEC_MODEL)
 from .optics import fresnel_unpolarized, refract
 from .polar import (azimuth_angle, diattenuate, frame, fresnel_mueller, metal_mueller, perpendicular, rayleigh_mueller,
                     rotate, scatter_stokes)
 from .rng import uniform2
-from .sampling import cosine_hemisphere, lambert_cone, onb, uniform_cone, uniform_disk, uniform_sphere
+from .sampling import onb
 
 # ---- features (rewritten by irtlang.compile.specialize) ----
 F_CONIC = True
@@ -64,14 +69,6 @@ MAX_PATHS = 4096    # paths per source ray: past this, RAYS n no longer splits (
 NEE_STRAIGHT_DN = 1e-3   # rays sent toward a target cross index steps smaller than this without bending
 SW = 20             # stack entry: ph(3) pl(3) d(3) w w0 ev excl nee path flags jlast opl sx sy, [q u v e1(3)], history
 SWP = SW + 6 if F_POLAR else SW     # where the history starts: after the Stokes state of a polarized trace
-# ledger columns
-C_INC, C_REF, C_TRA, C_SCA, C_ABS = 0, 1, 2, 3, 4
-# record flags
-FL_SCATTERED, FL_TRANSMITTED, FL_REFLECTED, FL_HALTED, FL_ESCAPED, FL_LOST = 1, 2, 4, 8, 16, 32
-# interface kinds (irtlang.compile.pack IF_*)
-IF_ABSORB, IF_REFLECT, IF_SPLIT, IF_FRESNEL, IF_POLARIZER, IF_RETARDER, IF_METAL = 0, 1, 2, 3, 4, 5, 6
-# event kinds in the history
-EV_R, EV_T, EV_S, EV_A = 1, 2, 3, 4
 EPS_SELF = 1e-9
 TWO_PI = 2.0 * math.pi
 
@@ -105,14 +102,6 @@ def _sub(h, l, th, tl):
     return s + (e + (l - tl))
 
 
-# surface tables: s_f (n, 40) float columns and s_i (n, 8) int columns, laid out by irtlang.compile.pack
-SF_PAR, SF_ASPH, SF_AP, SF_R, SF_TH, SF_TL, SF_SIZE, SF_BS = 0, 6, 14, 16, 25, 28, 31, 32
-SF_HOLE = 36        # central-hole cull of an ANNULUS aperture: r_in'^2, z_lo, z_hi, d_max (Packed._hole_bounds)
-SI_KIND, SI_NASPH, SI_APK, SI_MESH, SI_OBJ, SI_AXIS = 0, 1, 2, 3, 4, 5   # SI_AXIS: 1 if R is the identity
-SI_FAM, SI_FIDX = 6, 7     # nested-shell family and index in it (-1: none; irtlang.compile.pack.shell_families)
-_NO_ASPH = np.zeros(0)
-
-
 @numba.njit(cache=True, inline="always")
 def _local(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, j):
     qx = _sub(phx, plx, f[j, SF_TH], f[j, SF_TL])
@@ -138,30 +127,22 @@ def _rot(f, si, j, x, y, z):
 
 @numba.njit(cache=True, inline="always")
 def _aperture_ok(kind, f, j, x, y):
-    if kind == 0:
+    if kind == AP_NONE:
         return True
     a0 = f[j, SF_AP]
     a1 = f[j, SF_AP + 1]
-    if kind == 1:
+    if kind == AP_RECT:
         return in_rect(x, y, a0, a1)
-    if kind == 2:
+    if kind == AP_DISK:
         return in_disk(x, y, a0)
-    if kind == 3:
+    if kind == AP_ANNULUS:
         return in_annulus(x, y, a0, a1)
     return in_ellipse(x, y, a0, a1)
 
 
-@numba.njit(cache=True, inline="always")
-def _asph(f, si, j):
-    n = si[j, SI_NASPH]
-    if n == 0:
-        return _NO_ASPH
-    return f[j, SF_ASPH:SF_ASPH + n]
-
-
 # ---------------------------------------------------------------------------------------------- intersection
 @numba.njit(cache=True, inline="always")
-def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, mesh_i, bmin, bmax, child, count, tris, ids, jlast):
+def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, S, jlast):
     """Nearest surface hit: (t, surface, lx, ly, lz, face).  On `jlast`, the surface the ray has just
     left, the root nearest 0 (the departure point itself) is dropped first: at grazing departure the origin's
     rounding divided by the grazing angle can push that root past any tolerance."""
@@ -171,6 +152,8 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, mesh_i, bmin, bmax
     bly = 0.0
     blz = 0.0
     bface = -1
+    f = S.f
+    si = S.i
     fam_last = si[jlast, SI_FAM] if F_SHELLS and jlast >= 0 else -1
     for j in range(si.shape[0]):
         if F_SHELLS and fam_last >= 0 and si[j, SI_FAM] == fam_last and abs(si[j, SI_FIDX] - si[jlast, SI_FIDX]) > 1:
@@ -214,53 +197,8 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, mesh_i, bmin, bmax
             if xa * xa + ya * ya < hr2 and xb * xb + yb * yb < hr2:
                 continue
         tmin = EPS_SELF * max(f[j, SF_SIZE], abs(ox), abs(oy), abs(oz))
-        if F_MESH and k == 5:
-            m = si[j, SI_MESH]
-            a0 = mesh_i[m, 0]
-            a1 = a0 + mesh_i[m, 1]
-            b0 = mesh_i[m, 2]
-            b1 = b0 + mesh_i[m, 3]
-            t, face, _u, _v = hit_mesh(ox, oy, oz, ldx, ldy, ldz, tmin, bmin[a0:a1], bmax[a0:a1], child[a0:a1],
-                                       count[a0:a1], tris[b0:b1], ids[b0:b1])
-            if t < best_t:
-                best_t = t
-                best_j = j
-                blx = ox + t * ldx
-                bly = oy + t * ldy
-                blz = oz + t * ldz
-                bface = b0 + face if face >= 0 else -1
-            continue
-        if k == 0:
-            if not ((oz > 0.0 and ldz < 0.0) or (oz < 0.0 and ldz > 0.0)):
-                continue        # the plane is behind, or parallel: hit_plane's root would be <= 0 or inf
-            t1, t2 = hit_plane(ox, oy, oz, ldx, ldy, ldz)
-        elif F_CONIC and k == 1:
-            cq = f[j, SF_PAR]
-            kq = f[j, SF_PAR + 1]
-            if j == jlast and si[j, SI_NASPH] == 0:
-                # leaving this conic: the origin is on the quadric, so the other root is -2B/A (no sqrt)
-                kk = 1.0 + kq
-                a_ = cq * (ldx * ldx + ldy * ldy) + kk * cq * ldz * ldz
-                b_ = cq * (ox * ldx + oy * ldy) + kk * cq * oz * ldz - ldz
-                t1 = -2.0 * b_ / a_ if a_ != 0.0 else np.inf
-                if not (t1 > 0.0) or not math.isfinite(t1) or 1.0 - kk * cq * (oz + t1 * ldz) < -1e-9:
-                    t1 = np.inf
-                t2 = np.inf
-            elif si[j, SI_NASPH] == 0:
-                t1, t2 = hit_conic_plain(ox, oy, oz, ldx, ldy, ldz, cq, kq)     # inlined: no array, no call
-            else:
-                t1, t2 = hit_conic(ox, oy, oz, ldx, ldy, ldz, cq, kq, _asph(f, si, j))
-        elif F_QUADRIC and k == 2:
-            t1, t2 = hit_sphere(ox, oy, oz, ldx, ldy, ldz, f[j, SF_PAR])
-        elif F_QUADRIC and k == 3:
-            t1, t2 = hit_ellipsoid(ox, oy, oz, ldx, ldy, ldz, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_PAR + 2])
-        elif F_QUADRIC and k == 4:
-            t1, t2 = hit_tube(ox, oy, oz, ldx, ldy, ldz, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_PAR + 2],
-                              f[j, SF_PAR + 3])
-        else:
-            continue
-        if j == jlast and not (k == 1 and si[j, SI_NASPH] == 0):
-            t1, t2 = drop_leaving_root(t1, t2)
+        # the kind's own crossings (its plugin's ``hit``; the dispatch is generated from the registry)
+        t1, t2, face = _surface_hit(k, S, j, ox, oy, oz, ldx, ldy, ldz, tmin, j == jlast)
         apk = si[j, SI_APK]
         if t1 > tmin and t1 < best_t:
             x = ox + t1 * ldx
@@ -271,6 +209,7 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, mesh_i, bmin, bmax
                 blx = x
                 bly = y
                 blz = oz + t1 * ldz
+                bface = face
                 continue
         if t2 > tmin and t2 < best_t:
             x = ox + t2 * ldx
@@ -281,30 +220,15 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, mesh_i, bmin, bmax
                 blx = x
                 bly = y
                 blz = oz + t2 * ldz
+                bface = face
     return best_t, best_j, blx, bly, blz, bface
 
 
 @numba.njit(cache=True, inline="always")
-def _normal(j, k, lx, ly, lz, face, f, si, bvh_fn):
+def _normal(j, k, lx, ly, lz, face, S):
     """World unit normal of surface j at local point (lx, ly, lz)."""
-    if k == 0:
-        nx, ny, nz = 0.0, 0.0, 1.0
-    elif F_CONIC and k == 1:
-        if si[j, SI_NASPH] == 0:
-            nx, ny, nz = conic_normal_plain(lx, ly, f[j, SF_PAR], f[j, SF_PAR + 1])
-        else:
-            nx, ny, nz = conic_normal(lx, ly, f[j, SF_PAR], f[j, SF_PAR + 1], _asph(f, si, j))
-    elif F_QUADRIC and k == 2:
-        nx, ny, nz = sphere_normal(lx, ly, lz)
-    elif F_QUADRIC and k == 3:
-        nx, ny, nz = ellipsoid_normal(lx, ly, lz, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_PAR + 2])
-    elif F_QUADRIC and k == 4:
-        nx, ny, nz = tube_normal(lx, ly, lz, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_PAR + 2], f[j, SF_PAR + 3])
-    elif F_MESH and k == 5 and face >= 0:
-        nx, ny, nz = bvh_fn[face, 0], bvh_fn[face, 1], bvh_fn[face, 2]
-    else:
-        nx, ny, nz = 0.0, 0.0, 1.0
-    return _rot(f, si, j, nx, ny, nz)
+    nx, ny, nz = _surface_normal(k, S, j, lx, ly, lz, face)
+    return _rot(S.f, S.i, j, nx, ny, nz)
 
 
 # ---------------------------------------------------------------------------------------------- maps
@@ -403,7 +327,7 @@ def _toward(phx, phy, phz, plx, ply, plz, o_bc, o_br, tgt, u0, u1):
 @numba.njit(cache=True)
 def _phase(kind, g, gamma, mu):
     """Phase function per steradian (normalized over 4 pi): Rayleigh with depolarization, or HG."""
-    if kind == 1:
+    if kind == PHASE_RAYLEIGH:
         return 3.0 / (4.0 * (1.0 + 2.0 * gamma)) * ((1.0 + 3.0 * gamma) + (1.0 - gamma) * mu * mu) / (4.0 * math.pi)
     d = 1.0 + g * g - 2.0 * g * mu
     return (1.0 - g * g) / (4.0 * math.pi * d * math.sqrt(d))
@@ -412,7 +336,7 @@ def _phase(kind, g, gamma, mu):
 @numba.njit(cache=True)
 def _phase_sample(kind, g, gamma, u):
     """mu = cos(scattering angle) drawn from the phase function."""
-    if kind == 2:
+    if kind == PHASE_HG:
         if abs(g) < 1e-6:
             return 2.0 * u - 1.0
         q = (1.0 - g * g) / (1.0 - g + 2.0 * g * u)
@@ -445,11 +369,24 @@ def _turn(dx, dy, dz, mu, u):
 
 
 @numba.njit(cache=True, inline="always")
-def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random, src_toward,
-         src_pts, src_pts_off, o_bc, o_br, src_dw, src_lmap):
+def _gen(i, total, seed, SRC, o_bc, o_br, src_dw):
     """Ray i: (source, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, sx, sy); (sx, sy) is the start point
     in the source's own frame (the pupil coordinates of a GRID).  Ids past `total` start another
     pass over the sources (TRACE UNTIL ERROR) with fresh random numbers."""
+    src_kind = SRC.kind
+    src_dir = SRC.dir
+    src_par = SRC.par
+    src_R = SRC.R
+    src_Th = SRC.Th
+    src_Tl = SRC.Tl
+    src_n = SRC.n
+    src_off = SRC.off
+    src_w = SRC.w
+    src_random = SRC.random
+    src_toward = SRC.toward
+    src_pts = SRC.pts
+    src_pts_off = SRC.pts_off
+    src_lmap = SRC.lmap
     ii = i if i < total else i % total          # (integer divisions cost ~40 cycles: only when needed)
     s = 0
     while s + 1 < src_off.shape[0] and ii >= src_off[s + 1]:
@@ -458,7 +395,7 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
     n = src_n[s]
     slot = 0 if j < n else j // n
     q = j - slot * n
-    if src_random[s] == 3:
+    if src_random[s] == SAMPLE_SPECTRAL:
         # a camera's spectral samples: slot k of K draws its line from the bands' weights, stratified over
         # their cumulative distribution (rows (cdf, line) in src_pts; src_w holds weight / (pmf K))
         ul, _ul = uniform2(seed, i, 0, 2)
@@ -478,61 +415,8 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
     w = src_w[s, line]
     kind = src_kind[s]
     u0, u1 = uniform2(seed, i, 0, 0)
-    # position in the source frame
-    lx = 0.0
-    ly = 0.0
-    lz = 0.0
-    ldx = 0.0
-    ldy = 0.0
-    ldz = 1.0
-    if kind == 0:  # GRID RECT
-        nx = int(src_par[s, 4])
-        ny = int(src_par[s, 5])
-        if src_random[s] == 1:
-            fx = u0
-            fy = u1
-        else:
-            iy = q // nx
-            ix = q - iy * nx
-            if src_random[s] >= 2:     # stratified: one random point in each lattice cell (camera pixels)
-                fx = (ix + u0) / nx
-                fy = (iy + u1) / ny
-            else:
-                fx = (ix + 0.5) / nx
-                fy = (iy + 0.5) / ny
-        lx = src_par[s, 0] + (src_par[s, 1] - src_par[s, 0]) * fx
-        ly = src_par[s, 2] + (src_par[s, 3] - src_par[s, 2]) * fy
-    elif kind == 1:  # GRID DISK
-        if src_random[s] == 1:
-            x, y = uniform_disk(u0, u1)
-            lx = src_par[s, 0] * x
-            ly = src_par[s, 0] * y
-        else:
-            # the lattice's row table (irtlang.compile.pack.disk_lattice_rows): the row that holds point q
-            r0 = src_pts_off[s]
-            lo = 0
-            hi = int(src_par[s, 2])        # rows; entry hi is the end marker
-            while hi - lo > 1:
-                mid = (lo + hi) >> 1
-                if src_pts[r0 + mid, 0] <= q:
-                    lo = mid
-                else:
-                    hi = mid
-            start = src_pts[r0 + lo, 0]
-            amax = (src_pts[r0 + lo + 1, 0] - start - 1.0) * 0.5
-            h = src_par[s, 1]
-            lx = (q - start - amax) * h
-            ly = src_pts[r0 + lo, 1] * h
-    elif kind == 2:  # EMITTING SPHERE: a point on the sphere, its outward normal
-        x, y, z = uniform_sphere(u0, u1)
-        lx = src_par[s, 0] * x
-        ly = src_par[s, 0] * y
-        lz = src_par[s, 0] * z
-        ldx, ldy, ldz = x, y, z
-    elif kind == 3:  # EMITTING DISK
-        x, y = uniform_disk(u0, u1)
-        lx = src_par[s, 0] * x
-        ly = src_par[s, 0] * y
+    # the start point in the source's frame and its axis of Lambertian emission (the kind's plugin ``emit``)
+    lx, ly, lz, ax, ay, az = _source_emit(kind, SRC, s, q, u0, u1)
     # to world
     wx = src_R[s, 0] * lx + src_R[s, 1] * ly + src_R[s, 2] * lz
     wy = src_R[s, 3] * lx + src_R[s, 4] * ly + src_R[s, 5] * lz
@@ -544,72 +428,34 @@ def _gen(i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_
     ply += src_Tl[s, 1]
     plz += src_Tl[s, 2]
     dk = src_dir[s]
-    if dk == 0:  # collimated: the world direction is the source's own (_collimated_dirs), the same every ray
+    if dk == DIR_COLLIMATED:  # the world direction is the source's own (_collimated_dirs), the same every ray
         return s, line, phx, phy, phz, plx, ply, plz, src_dw[s, 0], src_dw[s, 1], src_dw[s, 2], w, lx, ly
-    elif dk == 1 or dk == 2:  # from / to a point
-        vx = lx - src_par[s, 6]
-        vy = ly - src_par[s, 7]
-        vz = lz - src_par[s, 8]
-        if dk == 2:
-            vx, vy, vz = -vx, -vy, -vz
-        m = math.sqrt(vx * vx + vy * vy + vz * vz)
-        if m == 0.0:
-            ldx, ldy, ldz = 0.0, 0.0, 1.0
-        else:
-            ldx, ldy, ldz = vx / m, vy / m, vz / m
-    elif dk == 3:  # field angles
-        tx = math.tan(src_par[s, 6])
-        ty = math.tan(src_par[s, 7])
-        m = math.sqrt(tx * tx + ty * ty + 1.0)
-        ldx, ldy, ldz = tx / m, ty / m, src_par[s, 8] / m
-    else:  # Lambertian emitter (sphere, disk) or isotropic point
-        u2, u3 = uniform2(seed, i, 0, 1)      # the direction's numbers: drawn only by the sources that use them
-        if kind == 4:
-            ax, ay, az = src_par[s, 2], src_par[s, 3], src_par[s, 4]
-        elif kind == 0:     # a Lambertian GRID RECT (a camera's pixels): emits on the side src_par[s, 8] (+-1)
-            ax, ay, az = 0.0, 0.0, src_par[s, 8]
-        else:
-            ax, ay, az = ldx, ldy, ldz
-        nwx = src_R[s, 0] * ax + src_R[s, 1] * ay + src_R[s, 2] * az
-        nwy = src_R[s, 3] * ax + src_R[s, 4] * ay + src_R[s, 5] * az
-        nwz = src_R[s, 6] * ax + src_R[s, 7] * ay + src_R[s, 8] * az
-        tgt = src_toward[s]
-        if tgt >= 0:
-            # sample the cone that holds the target's bounding sphere; exact weight = pdf_emitter / pdf_cone
-            cx = o_bc[tgt, 0] - src_Th[s, 0] - src_Tl[s, 0]
-            cy = o_bc[tgt, 1] - src_Th[s, 1] - src_Tl[s, 1]
-            cz = o_bc[tgt, 2] - src_Th[s, 2] - src_Tl[s, 2]
-            kx, ky, kz, omc = _cone_to(wx, wy, wz, cx, cy, cz, o_br[tgt])
-            dwx, dwy, dwz = _cone_dir(u2, u3, omc, kx, ky, kz)
-            omega = TWO_PI * omc
-            c = dwx * nwx + dwy * nwy + dwz * nwz
-            if kind == 4:
-                cmin = math.cos(src_par[s, 1])
-                if c < cmin:
-                    w = 0.0
-                else:
-                    w *= omega / (TWO_PI * (1.0 - cmin))
-            else:
-                climit = math.cos(src_par[s, 1]) if kind == 3 else 0.0
-                if c <= climit:
-                    w = 0.0
-                else:
-                    w *= c * omega / math.pi
-            return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w, lx, ly
-        if kind == 4:
-            x, y, z = uniform_cone(u2, u3, math.cos(src_par[s, 1]))
-        elif kind == 3 and src_par[s, 1] < 1.5707963267948966:
-            sm = math.sin(src_par[s, 1])
-            x, y, z = lambert_cone(u2, u3, sm)
-            w *= sm * sm
-        else:
-            x, y, z = cosine_hemisphere(u2, u3)
-        t1x, t1y, t1z, t2x, t2y, t2z = onb(nwx, nwy, nwz)
-        dwx = x * t1x + y * t2x + z * nwx
-        dwy = x * t1y + y * t2y + z * nwy
-        dwz = x * t1z + y * t2z + z * nwz
+    if dk != DIR_LAMBERT:   # the direction plugin's, per ray
+        ldx, ldy, ldz = _source_direction(dk, SRC, s, lx, ly, lz)
+        dwx, dwy, dwz = _dir_to_world(src_R, s, ldx, ldy, ldz)
         return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w, lx, ly
-    dwx, dwy, dwz = _dir_to_world(src_R, s, ldx, ldy, ldz)
+    # a Lambertian emitter (sphere, disk, point, a camera's pixels)
+    u2, u3 = uniform2(seed, i, 0, 1)      # the direction's numbers: drawn only by the sources that use them
+    nwx = src_R[s, 0] * ax + src_R[s, 1] * ay + src_R[s, 2] * az
+    nwy = src_R[s, 3] * ax + src_R[s, 4] * ay + src_R[s, 5] * az
+    nwz = src_R[s, 6] * ax + src_R[s, 7] * ay + src_R[s, 8] * az
+    tgt = src_toward[s]
+    if tgt >= 0:
+        # sample the cone that holds the target's bounding sphere; exact weight = pdf_emitter / pdf_cone
+        cx = o_bc[tgt, 0] - src_Th[s, 0] - src_Tl[s, 0]
+        cy = o_bc[tgt, 1] - src_Th[s, 1] - src_Tl[s, 1]
+        cz = o_bc[tgt, 2] - src_Th[s, 2] - src_Tl[s, 2]
+        kx, ky, kz, omc = _cone_to(wx, wy, wz, cx, cy, cz, o_br[tgt])
+        dwx, dwy, dwz = _cone_dir(u2, u3, omc, kx, ky, kz)
+        omega = TWO_PI * omc
+        w *= _source_toward(kind, SRC, s, dwx * nwx + dwy * nwy + dwz * nwz, omega)
+        return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w, lx, ly
+    x, y, z, wf = _source_lambert(kind, SRC, s, u2, u3)
+    w *= wf
+    t1x, t1y, t1z, t2x, t2y, t2z = onb(nwx, nwy, nwz)
+    dwx = x * t1x + y * t2x + z * nwx
+    dwy = x * t1y + y * t2y + z * nwy
+    dwz = x * t1z + y * t2z + z * nwz
     return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w, lx, ly
 
 
@@ -624,18 +470,64 @@ def _dir_to_world(src_R, s, ldx, ldy, ldz):
 
 
 @numba.njit(cache=True)
-def _collimated_dirs(src_dir, src_par, src_R):
-    """(S, 3): each collimated source's world unit direction, computed once per batch (bitwise what _gen would
-    compute for every ray); zeros for the other sources."""
-    out = np.zeros((src_dir.shape[0], 3))
-    for s in range(src_dir.shape[0]):
-        if src_dir[s] == 0:
-            x, y, z = _dir_to_world(src_R, s, src_par[s, 6], src_par[s, 7], src_par[s, 8])
+def _collimated_dirs(SRC):
+    """(S, 3): each collimated source's world unit direction, computed once per batch (bitwise what a per-ray
+    computation would give); zeros for the other sources."""
+    out = np.zeros((SRC.dir.shape[0], 3))
+    for s in range(SRC.dir.shape[0]):
+        if SRC.dir[s] == DIR_COLLIMATED:
+            ldx, ldy, ldz = _source_direction(DIR_COLLIMATED, SRC, s, 0.0, 0.0, 0.0)
+            x, y, z = _dir_to_world(SRC.R, s, ldx, ldy, ldz)
             out[s, 0] = x
             out[s, 1] = y
             out[s, 2] = z
     return out
 
+
+# ---- source dispatch (rewritten by irtlang.compile.specialize from the source registry; this copy, the
+# template's, has GRID RECT and SOURCE DIRECTION only) ----
+from irtlang.plugins.sources._common import lambert as _lambert_default
+from irtlang.plugins.sources._common import toward as _toward_default
+from irtlang.plugins.sources.grid_rect import emit as _emit_0
+from irtlang.plugins.sources.direction import direction as _direction_0
+
+
+@numba.njit(cache=True, inline="always")
+def _source_emit(kind, SRC, s, q, u0, u1):
+    return _emit_0(SRC, s, q, u0, u1)
+
+
+@numba.njit(cache=True, inline="always")
+def _source_direction(dk, SRC, s, x, y, z):
+    return _direction_0(SRC, s, x, y, z)
+
+
+@numba.njit(cache=True, inline="always")
+def _source_lambert(kind, SRC, s, u2, u3):
+    return _lambert_default(SRC, s, u2, u3)
+
+
+@numba.njit(cache=True, inline="always")
+def _source_toward(kind, SRC, s, c, omega):
+    return _toward_default(SRC, s, c, omega)
+# ---- end of source dispatch ----
+
+
+# ---- surface dispatch (rewritten by irtlang.compile.specialize for the surface kinds a kernel has; this copy, the
+# template's, has PLANE only) ----
+from irtlang.plugins.surfaces.plane import hit as _hit_0
+from irtlang.plugins.surfaces.plane import normal as _normal_0
+
+
+@numba.njit(cache=True, inline="always")
+def _surface_hit(k, S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
+    return _hit_0(S, j, ox, oy, oz, dx, dy, dz, tmin, leaving)
+
+
+@numba.njit(cache=True, inline="always")
+def _surface_normal(k, S, j, x, y, z, face):
+    return _normal_0(S, j, x, y, z, face)
+# ---- end of surface dispatch ----
 
 
 # ---- bsdf dispatch (rewritten by irtlang.compile.specialize for the models a scene uses) ----
@@ -706,23 +598,414 @@ def _push(stack, sp, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w0, ev, excl, 
         stack[sp, SWP + h] = hist[h]
 
 
+# ---------------------------------------------------------------------------------------------- event helpers
+# Inlined into trace_batch.  Numba loses a parallel loop's writes to an array reached through a tuple, so a
+# helper may READ a layout structure (S, SC, MD, D) but writes only into arrays passed to it as such.
+@numba.njit(cache=True, inline="always")
+def _deposit(D, dd, dep_idx, dep_w, c, ndep, cap, line, L, w, lx, ly, sx0, sy0, s_f, j, dx, dy, dz, ex, ey, ez,
+             stq, stu, stv):
+    """A hit on detector dd: its pixel's deposit (and in a polarized trace the Q, U, V deposits, in the detector's
+    frame).  Returns the deposit count and the ray's Stokes frame (made perpendicular to d)."""
+    x0 = D.ext[dd, 0]
+    x1 = D.ext[dd, 1]
+    y0 = D.ext[dd, 2]
+    y1 = D.ext[dd, 3]
+    # DETECTOR ... START: the pixel of where the ray started (its source's own frame), the image of an adjoint
+    # (detector-side) trace; else the pixel of the hit point
+    ux = sx0 if D.start[dd] else lx
+    uy = sy0 if D.start[dd] else ly
+    if ux >= x0 and ux <= x1 and uy >= y0 and uy <= y1:
+        nx = D.nx[dd]
+        ny = D.ny[dd]
+        ix = min(nx - 1, int((ux - x0) / (x1 - x0) * nx))
+        iy = min(ny - 1, int((uy - y0) / (y1 - y0) * ny))
+        if ndep < cap:
+            dep_idx[c, ndep] = D.off[dd] + (line * ny + iy) * nx + ix
+            dep_w[c, ndep] = w * D.qe[dd, line]
+        ndep += 1
+        if F_POLAR:
+            # Q, U, V in the detector's frame (e1: its local x, projected across the ray), deposited as images
+            # 1, 2, 3 of the detector's Stokes stack
+            fx, fy, fz = frame(dx, dy, dz, s_f[j, SF_R], s_f[j, SF_R + 3], s_f[j, SF_R + 6])
+            ex, ey, ez = frame(dx, dy, dz, ex, ey, ez)
+            dq, du = rotate(dx, dy, dz, ex, ey, ez, stq, stu, fx, fy, fz)
+            stride = L * ny * nx
+            wd = w * D.qe[dd, line]
+            for comp in range(1, 4):
+                if ndep < cap:
+                    dep_idx[c, ndep] = D.off[dd] + comp * stride + (line * ny + iy) * nx + ix
+                    dep_w[c, ndep] = wd * (dq if comp == 1 else (du if comp == 2 else stv))
+                ndep += 1
+    return ndep, ex, ey, ez
+
+
+@numba.njit(cache=True, inline="always")
+def _specular(MD, it, cc, line, ci, m1, m2):
+    """The interface's specular reflectance R and transmittance T (absorbed: 1 - R - T), and in a polarized
+    trace its Mueller coefficients (Ar, Br, xr, yr) for reflection and (At, Bt, xt, yt) for transmission."""
+    Ar = Br = xr = yr = At = Bt = xt = yt = 0.0
+    if it == IF_ABSORB:
+        R = 0.0
+        T = 0.0
+    elif it == IF_REFLECT:
+        R = 1.0
+        T = 0.0
+    elif it == IF_SPLIT:
+        R = MD.coat_R[0, cc, line]
+        T = MD.coat_T[0, cc, line]
+        tir = False
+        if F_REFRACT and T > 0.0:
+            # a coated boundary between two media refracts; beyond the critical angle its transmitted share
+            # cannot leave and is reflected (total internal reflection)
+            n1 = MD.n[m1, line]
+            n2 = MD.n[m2, line]
+            if n1 > n2 and n1 * n1 * (1.0 - ci * ci) >= n2 * n2:
+                R += T
+                T = 0.0
+                tir = True
+        if F_POLAR:
+            # Mueller coefficients from (Rs + Rp)/2, (Rs - Rp)/2 and the retardance beyond an ideal mirror's
+            # (reflection: x + i y = -sqrt(Rs Rp) exp(i delta_r)) or a bare transmission's (x + i y = sqrt(Ts Tp)
+            # exp(i delta_t)); the coatings' layout (irtlang.kernels.layout.Media)
+            Ar = R
+            At = T
+            if not tir:
+                Br = MD.coat_R[1, cc, line]
+                Bt = MD.coat_T[1, cc, line]
+            a = math.sqrt(max(Ar * Ar - Br * Br, 0.0))
+            xr = -a * math.cos(MD.coat_R[2, cc, line])
+            yr = -a * math.sin(MD.coat_R[2, cc, line])
+            a = math.sqrt(max(At * At - Bt * Bt, 0.0))
+            xt = a * math.cos(MD.coat_T[2, cc, line])
+            yt = a * math.sin(MD.coat_T[2, cc, line])
+    elif it == IF_METAL:
+        # a metal: Fresnel with the complex index n + i k (coat_R, coat_T hold n and k), no T
+        Ar, Br, xr, yr = metal_mueller(abs(ci), MD.n[m1, line], MD.coat_R[0, cc, line], MD.coat_T[0, cc, line])
+        R = Ar
+        T = 0.0
+    elif not F_POLAR or it == IF_FRESNEL:
+        if F_POLAR:
+            Ar, Br, xr, yr, At, Bt, xt = fresnel_mueller(abs(ci), MD.n[m1, line], MD.n[m2, line])
+            R = 0.0
+        else:
+            R = fresnel_unpolarized(abs(ci), MD.n[m1, line], MD.n[m2, line])
+        T = 1.0 - R
+    else:
+        R = 0.0
+        T = 1.0
+    return R, T, Ar, Br, xr, yr, At, Bt, xt, yt
+
+
+@numba.njit(cache=True, inline="always")
+def _interface_frame(it, o_pol, o, s_f, j, dx, dy, dz, nwx, nwy, nwz, ex, ey, ez, stq, stu, R, T, Ar, Br, At, Bt):
+    """A polarized trace at an interface: the Stokes vector into the interface's frame (e1 = s, normal to the
+    plane of incidence, or a polarizer's or retarder's axis: the object's local x turned by its angle about z),
+    and R, T for that state.  Returns (R, T, q, u, e1)."""
+    ex, ey, ez = frame(dx, dy, dz, ex, ey, ez)
+    if it == IF_POLARIZER or it == IF_RETARDER:
+        ca = math.cos(o_pol[o, 0])
+        sa = math.sin(o_pol[o, 0])
+        r = SF_R
+        snx, sny, snz = frame(dx, dy, dz, ca * s_f[j, r] + sa * s_f[j, r + 1], ca * s_f[j, r + 3] + sa * s_f[j, r + 4],
+                              ca * s_f[j, r + 6] + sa * s_f[j, r + 7])
+    else:
+        snx, sny, snz = perpendicular(dx, dy, dz, nwx, nwy, nwz, ex, ey, ez)
+    stq, stu = rotate(dx, dy, dz, ex, ey, ez, stq, stu, snx, sny, snz)
+    if it == IF_FRESNEL:
+        R = Ar + Br * stq
+        T = 1.0 - R
+    elif it == IF_METAL:
+        R = Ar + Br * stq
+    elif it == IF_SPLIT:
+        R = Ar + Br * stq
+        T = At + Bt * stq
+    elif it == IF_POLARIZER:
+        T = 0.5 * (1.0 + stq)
+    return R, T, stq, stu, snx, sny, snz
+
+
+@numba.njit(cache=True, inline="always")
+def _scatter_spec(SC, first, cnt, lx, ly, lz, seed, i, ev, path):
+    """Which scatter model applies at this hit: the object's SCATTER specs tried in order (a class map picks by
+    the class under the point, a fraction map draws against the fraction).  (model, RAYS n, TOWARD target);
+    model -1: none."""
+    sc = -1
+    sc_n = 1
+    sc_tgt = -1
+    if F_SCATTER and cnt > 0:
+        for qq in range(cnt):
+            spn = first + qq
+            kd = SC.kind[spn]
+            if F_MAPS and kd != SPEC_MODEL:
+                lat, lon = geodetic(lx, ly, lz)
+                mp = SC.map[spn]
+                v = map_value(SC.map_data, SC.map_off[mp], SC.map_nlat[mp], SC.map_nlon[mp], lat, lon)
+                if kd == SPEC_CLASS_MAP:
+                    cl = int(v)
+                    if cl >= 0 and cl < SC.cls_n[spn]:
+                        sc = SC.cls_models[SC.cls_off[spn] + cl]
+                else:
+                    uc, _u = uniform2(seed, i, ev, path * 64 + 59 - qq)
+                    if uc < v:
+                        sc = SC.model[spn]
+                    else:
+                        continue
+            else:
+                sc = SC.model[spn]
+            sc_n = SC.rays[spn]
+            sc_tgt = SC.tgt[spn]
+            break
+    return sc, sc_n, sc_tgt
+
+
+@numba.njit(cache=True, inline="always")
+def _volume_toward(stack, sp, npath, led, c, r_imp, line, key, nr, pk, gg, gam, depol, tgt, w, nee_cut, o_bc, o_br,
+                   pos, d, pol, opl, sx0, sy0, hist, H):
+    """Next-event estimation at a volume scattering: nr rays toward the target's bounding sphere with the exact
+    weights w p(mu) Omega / nr (polarized Rayleigh: the Mueller matrix in the plane through d and the target),
+    pushed on the stack and booked negative on the IMPORTANCE row.  The ray's state as in _bsdf_toward.  Returns
+    (sp, npath)."""
+    seed, i, ev, path = key
+    phx, phy, phz, plx, ply, plz = pos
+    dx, dy, dz = d
+    stq, stu, stv, ex, ey, ez = pol
+    for q in range(nr):
+        v0, v1 = uniform2(seed, i, ev, path * 64 + 8 + 2 * q)
+        ox_, oy_, oz_, om = _toward(phx, phy, phz, plx, ply, plz, o_bc, o_br, tgt, v0, v1)
+        mu_ = dx * ox_ + dy * oy_ + dz * oz_
+        pf = 1.0
+        nq = 0.0
+        nu = 0.0
+        nv = 0.0
+        nex = 0.0
+        ney = 0.0
+        nez = 0.0
+        if F_POLAR:
+            if pk == PHASE_RAYLEIGH:
+                nex, ney, nez = perpendicular(dx, dy, dz, ox_, oy_, oz_, ex, ey, ez)
+                qs, us = rotate(dx, dy, dz, ex, ey, ez, stq, stu, nex, ney, nez)
+                p11, p12, p22, p33, p44 = rayleigh_mueller(mu_, depol)
+                i1, nq, nu, nv = scatter_stokes(qs, us, stv, p11, p12, p22, p33, p44)
+                pf = i1 / p11
+            else:
+                nex, ney, nez = frame(ox_, oy_, oz_, ex, ey, ez)   # HG depolarizes
+        cw = w * _phase(pk, gg, gam, mu_) * pf * om / nr
+        if nee_cut > 0.0 and cw > 0.0:
+            cw = _nee_roulette(cw, w * om / (math.pi * nr), nee_cut, uniform2(seed, i, ev, path * 64 + 9 + 2 * q)[0])
+        if cw > 0.0 and sp < SMAX:
+            _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev, -1.0, 1.0, npath, FL_SCATTERED,
+                  -1.0, opl, sx0, sy0, hist, H, nq, nu, nv, nex, ney, nez)
+            sp += 1
+            npath += 1
+            led[c, r_imp, C_ABS, line] -= cw
+    return sp, npath
+
+
+@numba.njit(cache=True, inline="always")
+def _phase_turn(pk, gg, gam, depol, v0, v1, dx, dy, dz, ex, ey, ez, stq, stu, stv):
+    """The direction after a volume scattering, drawn from the phase function, with the Stokes state and frame
+    after it.  Polarized Rayleigh: mu from the phase function (the marginal of the Mueller matrix's I row), then
+    the azimuth from its density given mu, 1 - A cos 2(phi - phi0): the joint density exactly, the weight
+    unchanged.  HG depolarizes (docs/tracer.md)."""
+    mu_ = _phase_sample(pk, gg, gam, v0)
+    if F_POLAR and pk == PHASE_RAYLEIGH:
+        p11, p12, p22, p33, p44 = rayleigh_mueller(mu_, depol)
+        A = p12 / p11 * math.sqrt(stq * stq + stu * stu)
+        phi = 0.5 * math.atan2(stu, stq) + azimuth_angle(A, v1)
+        cph = math.cos(phi)
+        sph = math.sin(phi)
+        e2x = dy * ez - dz * ey
+        e2y = dz * ex - dx * ez
+        e2z = dx * ey - dy * ex
+        st = math.sqrt(max(0.0, 1.0 - mu_ * mu_))
+        nsx = cph * e2x - sph * ex      # the scattering plane's normal
+        nsy = cph * e2y - sph * ey
+        nsz = cph * e2z - sph * ez
+        qs, us = rotate(dx, dy, dz, ex, ey, ez, stq, stu, nsx, nsy, nsz)
+        _i1, stq, stu, stv = scatter_stokes(qs, us, stv, p11, p12, p22, p33, p44)
+        dx = mu_ * dx + st * (cph * ex + sph * e2x)
+        dy = mu_ * dy + st * (cph * ey + sph * e2y)
+        dz = mu_ * dz + st * (cph * ez + sph * e2z)
+        ex, ey, ez = frame(dx, dy, dz, nsx, nsy, nsz)
+    else:
+        dx, dy, dz = _turn(dx, dy, dz, mu_, v1)
+        if F_POLAR:
+            stq = 0.0
+            stu = 0.0
+            stv = 0.0
+            ex, ey, ez = frame(dx, dy, dz, ex, ey, ez)
+    return dx, dy, dz, ex, ey, ez, stq, stu, stv
+
+
+@numba.njit(cache=True, inline="always")
+def _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, kc, mk, P, tgt, nr, w, nee_cut, o_bc, o_br, pos, d, nv,
+                 pol, o, j, opl, sx0, sy0, hist, H):
+    """Next-event estimation at a surface: nr rays toward the target's bounding sphere with the exact weights
+    w f |cos| Omega / nr (w: the path's weight times the model's probability here), pushed on the stack and
+    booked negative on the IMPORTANCE row.  Random streams path * 64 + 8 + 2 (kc + q) and + 9.  The ray's state
+    comes as tuples: key (seed, ray, event, path), pos (double-double position), d, nv (the normal on the
+    incoming side), pol (q, u, v, e1).  Returns (sp, npath)."""
+    seed, i, ev, path = key
+    phx, phy, phz, plx, ply, plz = pos
+    dx, dy, dz = d
+    nvx, nvy, nvz = nv
+    stq, stu, stv, ex, ey, ez = pol
+    for q in range(nr):
+        qd = kc + q
+        v0, v1 = uniform2(seed, i, ev, path * 64 + 8 + 2 * qd)
+        ox_, oy_, oz_, om = _toward(phx, phy, phz, plx, ply, plz, o_bc, o_br, tgt, v0, v1)
+        co = ox_ * nvx + oy_ * nvy + oz_ * nvz
+        f = _bsdf_eval(mk, P, line, -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz)
+        nq = nu = nv = nex = ney = nez = 0.0
+        if F_POLAR:
+            pf, nq, nu, nv, nex, ney, nez = _bsdf_mueller(mk, P, line, -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz,
+                                                          stq, stu, stv, ex, ey, ez)
+            f *= pf
+        cw = w * f * abs(co) * om / nr
+        if nee_cut > 0.0 and cw > 0.0:
+            cw = _nee_roulette(cw, w * om / (math.pi * nr), nee_cut, uniform2(seed, i, ev, path * 64 + 9 + 2 * qd)[0])
+        if cw > 0.0 and sp < SMAX:
+            if F_HISTORY and ev - 1 < H:
+                hist[ev - 1] = o * 8 + EV_S
+            _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev, -1.0, 1.0, npath, FL_SCATTERED, j,
+                  opl, sx0, sy0, hist, H, nq, nu, nv, nex, ney, nez)
+            sp += 1
+            npath += 1
+            led[c, r_imp, C_ABS, line] -= cw
+    return sp, npath
+
+
+@numba.njit(cache=True, inline="always")
+def _record(rec_pos, rec_dir, rec_w, rec_line, rec_src, rec_obj, rec_ev, rec_flags, rec_hist, rec_opl, rec_start, c,
+            nrec, hit, adir, aw, line, s, last, ev, flags, opl, sx0, sy0, hist, H):
+    """A path's record (its last hit, or its start when it hit nothing; `hit` its double-double position (hi,
+    lo parts), `adir` the direction there): the Records layout."""
+    hx, hy, hz, hlx, hly, hlz = hit
+    adx, ady, adz = adir
+    rec_pos[c, nrec, 0] = hx
+    rec_pos[c, nrec, 1] = hy
+    rec_pos[c, nrec, 2] = hz
+    if rec_pos.shape[2] >= 6:
+        # the low part of the double-double position: hx + hlx is exact to ~1e-16 relative
+        rec_pos[c, nrec, 3] = hlx
+        rec_pos[c, nrec, 4] = hly
+        rec_pos[c, nrec, 5] = hlz
+    rec_dir[c, nrec, 0] = adx
+    rec_dir[c, nrec, 1] = ady
+    rec_dir[c, nrec, 2] = adz
+    rec_w[c, nrec] = aw
+    rec_line[c, nrec] = line
+    rec_src[c, nrec] = s
+    rec_obj[c, nrec] = last
+    rec_ev[c, nrec] = ev
+    rec_flags[c, nrec] = flags
+    rec_opl[c, nrec] = opl
+    rec_start[c, nrec, 0] = sx0
+    rec_start[c, nrec, 1] = sy0
+    for h in range(H):
+        rec_hist[c, nrec, h] = int(hist[h])
+
+
+@numba.njit(cache=True, inline="always")
+def _close_source_ray(inc_sq, c, line, acc, touched, nt):
+    """The squares of the whole source ray's incident flux per object (its split paths and rays toward targets
+    are correlated: squaring each incidence alone would underestimate the standard error)."""
+    for q in range(nt):
+        inc_sq[c, touched[q], line] += acc[touched[q]] * acc[touched[q]]
+        acc[touched[q]] = 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _merge_deposits(dep_idx, dep_w, c, dep0, ndep):
+    """One deposit per pixel and source ray (reduce_batch squares each deposit): merge entries dep0 .. ndep - 1
+    that share a pixel, in first-seen order.  Returns the new count."""
+    kk = dep0
+    for qa in range(dep0, ndep):
+        qb = dep0
+        while qb < kk and dep_idx[c, qb] != dep_idx[c, qa]:
+            qb += 1
+        if qb < kk:
+            dep_w[c, qb] += dep_w[c, qa]
+        else:
+            dep_idx[c, kk] = dep_idx[c, qa]
+            dep_w[c, kk] = dep_w[c, qa]
+            kk += 1
+    return kk
+
+
+
 @numba.njit(cache=True, parallel=True)
-def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
-                s_f, s_i, mesh_i, bmin, bmax, child, count, tris, ids, bvh_fn,
-                o_itf, o_coat, o_back, o_front, o_det, o_pol, o_bc, o_br, o_sc_first, o_sc_cnt, sp_kind, sp_model, sp_map,
-                sp_cls_off, sp_cls_n, sp_rays, sp_tgt, cls_models, map_data, map_off, map_nlat, map_nlon,
-                mod_kind, mod_P, mod_slab,
-                med_n, med_alpha, med_row, med_sig, med_alb, med_g, med_phase, med_depol, med_tgt, med_nee,
-                coat_R, coat_T,
-                d_nx, d_ny, d_ext, d_off, d_qe, d_start,
-                src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random, src_toward,
-                src_pts, src_pts_off, src_lmap,
-                led, inc_sq, dep_idx, dep_w, dep_n, rec_pos, rec_dir, rec_w, rec_line, rec_src, rec_obj, rec_ev,
-                rec_flags, rec_hist, rec_opl, rec_start, rec_n):
+def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
     """Trace source rays first .. first+n-1 with every path they spawn.  Per chunk c: led[c] (rows, 5, L),
     inc_sq[c] (rows, L), deposits dep_idx/dep_w[c, :dep_n[c]] and records rec_*[c, :rec_n[c]] (one per
     path end); a count of -1 marks a chunk that overflowed its list (the caller retries with more room).
-    Rows: objects, absorbing media, [IMPORTANCE], EMITTED, ESCAPED, HALTED, LOST (the last four)."""
+    Rows: objects, absorbing media, [IMPORTANCE], EMITTED, ESCAPED, HALTED, LOST (the last four).
+    The arguments are the structures of ``irtlang.kernels.layout`` (Settings, Surfaces, Objects, Scatter, Media,
+    Detectors, Sources, Tallies, Records); their fields become the locals the trace reads."""
+    # fields by attribute, never by tuple unpacking: Numba 0.6x loses a parallel loop's writes to an array
+    # unpacked from a tuple (`a, b = T` then `b[c] = x` in the prange is dropped; tests/unit/test_kernel_layout.py)
+    first = settings.first
+    n = settings.n
+    total = settings.total
+    seed = settings.seed
+    level = settings.level
+    halt = settings.halt
+    nee_cut = settings.nee_cut
+    r_imp = settings.r_imp
+    s_f = S.f
+    s_i = S.i
+    o_itf = O.itf
+    o_coat = O.coat
+    o_back = O.back
+    o_front = O.front
+    o_det = O.det
+    o_pol = O.pol
+    o_bc = O.bc
+    o_br = O.br
+    o_sc_first = O.sc_first
+    o_sc_cnt = O.sc_cnt
+    sp_kind = SC.kind
+    sp_model = SC.model
+    sp_map = SC.map
+    sp_cls_off = SC.cls_off
+    sp_cls_n = SC.cls_n
+    sp_rays = SC.rays
+    sp_tgt = SC.tgt
+    cls_models = SC.cls_models
+    map_data = SC.map_data
+    map_off = SC.map_off
+    map_nlat = SC.map_nlat
+    map_nlon = SC.map_nlon
+    mod_kind = SC.mod_kind
+    mod_P = SC.mod_P
+    mod_slab = SC.mod_slab
+    med_n = MD.n
+    med_alpha = MD.alpha
+    med_row = MD.row
+    med_sig = MD.sig
+    med_alb = MD.alb
+    med_g = MD.g
+    med_phase = MD.phase
+    med_depol = MD.depol
+    med_tgt = MD.tgt
+    med_nee = MD.nee
+    led = T.led
+    inc_sq = T.inc_sq
+    dep_idx = T.dep_idx
+    dep_w = T.dep_w
+    dep_n = T.dep_n
+    rec_pos = REC.pos
+    rec_dir = REC.dir
+    rec_w = REC.w
+    rec_line = REC.line
+    rec_src = REC.src
+    rec_obj = REC.obj
+    rec_ev = REC.ev
+    rec_flags = REC.flags
+    rec_hist = REC.hist
+    rec_opl = REC.opl
+    rec_start = REC.start
+    rec_n = REC.n
     nrows = led.shape[1]
     r_emit = nrows - 4
     r_esc = nrows - 3
@@ -732,7 +1015,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
     cap = dep_idx.shape[1]
     rcap = rec_w.shape[1]
     H = rec_hist.shape[2]
-    src_dw = _collimated_dirs(src_dir, src_par, src_R)
+    src_dw = _collimated_dirs(SRC)
     for c in numba.prange(nchunks):
         ndep = 0
         nrec = 0
@@ -746,9 +1029,8 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
         touched = np.empty(nrows, np.int64)
         for ii in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             i = first + ii
-            s, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, sx0, sy0 = _gen(
-                i, total, seed, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random,
-                src_toward, src_pts, src_pts_off, o_bc, o_br, src_dw, src_lmap)
+            s, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, sx0, sy0 = _gen(i, total, seed, SRC, o_bc, o_br,
+                                                                                  src_dw)
             led[c, r_emit, C_INC, line] += w
             nt = 0
             dep0 = ndep
@@ -828,14 +1110,13 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                         led[c, r_halt, C_ABS, line] += w
                         flags |= FL_HALTED
                         break
-                    t, j, lx, ly, lz, face = _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, s_f, s_i, mesh_i,
-                                                      bmin, bmax, child, count, tris, ids, jlast)
+                    t, j, lx, ly, lz, face = _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, S, jlast)
                     if j < 0:
                         led[c, r_esc, C_ABS, line] += w
                         flags |= FL_ESCAPED
                         break
                     k = s_i[j, SI_KIND]
-                    nwx, nwy, nwz = _normal(j, k, lx, ly, lz, face, s_f, s_i, bvh_fn)
+                    nwx, nwy, nwz = _normal(j, k, lx, ly, lz, face, S)
                     o = s_i[j, SI_OBJ]
                     ci = -(dx * nwx + dy * nwy + dz * nwz)
                     if not (math.isfinite(t) and math.isfinite(ci)):
@@ -846,7 +1127,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                     it = o_itf[o]
                     m1 = o_front[o] if front else o_back[o]
                     m2 = o_back[o] if front else o_front[o]
-                    if F_VOLUME and it >= 2 and med_sig[m1, line] > 0.0:
+                    if F_VOLUME and it >= IF_SPLIT and med_sig[m1, line] > 0.0:
                         sig = med_sig[m1, line]
                         rm = med_row[m1]
                         if nee:
@@ -877,71 +1158,14 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                 gam = med_depol[m1] / (2.0 - med_depol[m1])
                                 tgt = med_tgt[m1]
                                 if F_IMPORTANCE and tgt >= 0:
-                                    nr = med_nee[m1]
-                                    for q in range(nr):
-                                        v0, v1 = uniform2(seed, i, ev, path * 64 + 8 + 2 * q)
-                                        ox_, oy_, oz_, om = _toward(phx, phy, phz, plx, ply, plz, o_bc, o_br, tgt,
-                                                                    v0, v1)
-                                        mu_ = dx * ox_ + dy * oy_ + dz * oz_
-                                        pf = 1.0
-                                        nq = 0.0
-                                        nu = 0.0
-                                        nv = 0.0
-                                        nex = 0.0
-                                        ney = 0.0
-                                        nez = 0.0
-                                        if F_POLAR:
-                                            if pk == 1:
-                                                # Rayleigh: the Mueller matrix in the plane through d and the target
-                                                nex, ney, nez = perpendicular(dx, dy, dz, ox_, oy_, oz_, ex, ey, ez)
-                                                qs, us = rotate(dx, dy, dz, ex, ey, ez, stq, stu, nex, ney, nez)
-                                                p11, p12, p22, p33, p44 = rayleigh_mueller(mu_, med_depol[m1])
-                                                i1, nq, nu, nv = scatter_stokes(qs, us, stv, p11, p12, p22, p33, p44)
-                                                pf = i1 / p11
-                                            else:
-                                                nex, ney, nez = frame(ox_, oy_, oz_, ex, ey, ez)   # HG depolarizes
-                                        cw = w * _phase(pk, gg, gam, mu_) * pf * om / nr
-                                        if nee_cut > 0.0 and cw > 0.0:
-                                            cw = _nee_roulette(cw, w * om / (math.pi * nr), nee_cut,
-                                                               uniform2(seed, i, ev, path * 64 + 9 + 2 * q)[0])
-                                        if cw > 0.0 and sp < SMAX:
-                                            _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev,
-                                                  -1.0, 1.0, npath, FL_SCATTERED, -1.0, opl, sx0, sy0, hist, H,
-                                                  nq, nu, nv, nex, ney, nez)
-                                            sp += 1
-                                            npath += 1
-                                            led[c, r_imp, C_ABS, line] -= cw
+                                    sp, npath = _volume_toward(stack, sp, npath, led, c, r_imp, line,
+                                                               (seed, i, ev, path), med_nee[m1], pk, gg, gam,
+                                                               med_depol[m1], tgt, w, nee_cut, o_bc, o_br,
+                                                               (phx, phy, phz, plx, ply, plz), (dx, dy, dz),
+                                                               (stq, stu, stv, ex, ey, ez), opl, sx0, sy0, hist, H)
                                 v0, v1 = uniform2(seed, i, ev, path * 64 + 61)
-                                mu_ = _phase_sample(pk, gg, gam, v0)
-                                if F_POLAR and pk == 1:
-                                    # Rayleigh, polarized: mu from the phase function (the marginal of the
-                                    # Mueller matrix's I row), then the azimuth from its density given mu,
-                                    # 1 - A cos 2(phi - phi0): the joint density exactly, the weight unchanged
-                                    p11, p12, p22, p33, p44 = rayleigh_mueller(mu_, med_depol[m1])
-                                    A = p12 / p11 * math.sqrt(stq * stq + stu * stu)
-                                    phi = 0.5 * math.atan2(stu, stq) + azimuth_angle(A, v1)
-                                    cph = math.cos(phi)
-                                    sph = math.sin(phi)
-                                    e2x = dy * ez - dz * ey
-                                    e2y = dz * ex - dx * ez
-                                    e2z = dx * ey - dy * ex
-                                    st = math.sqrt(max(0.0, 1.0 - mu_ * mu_))
-                                    nsx = cph * e2x - sph * ex      # the scattering plane's normal
-                                    nsy = cph * e2y - sph * ey
-                                    nsz = cph * e2z - sph * ez
-                                    qs, us = rotate(dx, dy, dz, ex, ey, ez, stq, stu, nsx, nsy, nsz)
-                                    _i1, stq, stu, stv = scatter_stokes(qs, us, stv, p11, p12, p22, p33, p44)
-                                    dx = mu_ * dx + st * (cph * ex + sph * e2x)
-                                    dy = mu_ * dy + st * (cph * ey + sph * e2y)
-                                    dz = mu_ * dz + st * (cph * ez + sph * e2z)
-                                    ex, ey, ez = frame(dx, dy, dz, nsx, nsy, nsz)
-                                else:
-                                    dx, dy, dz = _turn(dx, dy, dz, mu_, v1)
-                                    if F_POLAR:
-                                        stq = 0.0      # HG volumes depolarize (docs/tracer.md)
-                                        stu = 0.0
-                                        stv = 0.0
-                                        ex, ey, ez = frame(dx, dy, dz, ex, ey, ez)
+                                dx, dy, dz, ex, ey, ez, stq, stu, stv = _phase_turn(pk, gg, gam, med_depol[m1], v0, v1, dx,
+                                                                                    dy, dz, ex, ey, ez, stq, stu, stv)
                                 excl = tgt
                                 jlast = -1
                                 flags |= FL_SCATTERED
@@ -955,7 +1179,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                     if w == 0.0:
                                         flags |= FL_HALTED
                                 continue
-                    if F_ABSORB_MEDIA and it >= 2:
+                    if F_ABSORB_MEDIA and it >= IF_SPLIT:
                         a = med_alpha[m1, line]
                         if a > 0.0:
                             keep = math.exp(-a * t)
@@ -994,146 +1218,18 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                     last = o
                     dd = o_det[o]
                     if dd >= 0:
-                        x0 = d_ext[dd, 0]
-                        x1 = d_ext[dd, 1]
-                        y0 = d_ext[dd, 2]
-                        y1 = d_ext[dd, 3]
-                        # DETECTOR ... START: the pixel of where the ray started (its source's own frame), the
-                        # image of an adjoint (detector-side) trace; else the pixel of the hit point
-                        ux = sx0 if d_start[dd] else lx
-                        uy = sy0 if d_start[dd] else ly
-                        if ux >= x0 and ux <= x1 and uy >= y0 and uy <= y1:
-                            nx = d_nx[dd]
-                            ny = d_ny[dd]
-                            ix = min(nx - 1, int((ux - x0) / (x1 - x0) * nx))
-                            iy = min(ny - 1, int((uy - y0) / (y1 - y0) * ny))
-                            if ndep < cap:
-                                dep_idx[c, ndep] = d_off[dd] + (line * ny + iy) * nx + ix
-                                dep_w[c, ndep] = w * d_qe[dd, line]
-                            ndep += 1
-                            if F_POLAR:
-                                # Q, U, V in the detector's frame (e1: its local x, projected across the ray),
-                                # deposited as images 1, 2, 3 of the detector's Stokes stack
-                                fx, fy, fz = frame(dx, dy, dz, s_f[j, SF_R], s_f[j, SF_R + 3], s_f[j, SF_R + 6])
-                                ex, ey, ez = frame(dx, dy, dz, ex, ey, ez)
-                                dq, du = rotate(dx, dy, dz, ex, ey, ez, stq, stu, fx, fy, fz)
-                                stride = led.shape[3] * ny * nx
-                                wd = w * d_qe[dd, line]
-                                for comp in range(1, 4):
-                                    if ndep < cap:
-                                        dep_idx[c, ndep] = d_off[dd] + comp * stride + (line * ny + iy) * nx + ix
-                                        dep_w[c, ndep] = wd * (dq if comp == 1 else (du if comp == 2 else stv))
-                                    ndep += 1
+                        ndep, ex, ey, ez = _deposit(D, dd, dep_idx, dep_w, c, ndep, cap, line, led.shape[3], w,
+                                                    lx, ly, sx0, sy0, s_f, j, dx, dy, dz, ex, ey, ez, stq, stu, stv)
                     # the interface: specular R and T, absorbed A
-                    Ar = Br = xr = yr = At = Bt = xt = yt = 0.0
-                    if it == 0:
-                        R = 0.0
-                        T = 0.0
-                    elif it == 1:
-                        R = 1.0
-                        T = 0.0
-                    elif it == 2:
-                        cc = o_coat[o]
-                        R = coat_R[0, cc, line]
-                        T = coat_T[0, cc, line]
-                        tir = False
-                        if F_REFRACT and T > 0.0:
-                            # a coated boundary between two media refracts; beyond the critical angle its
-                            # transmitted share cannot leave and is reflected (total internal reflection)
-                            n1 = med_n[m1, line]
-                            n2 = med_n[m2, line]
-                            if n1 > n2 and n1 * n1 * (1.0 - ci * ci) >= n2 * n2:
-                                R += T
-                                T = 0.0
-                                tir = True
-                        if F_POLAR:
-                            # Mueller coefficients from (Rs + Rp)/2, (Rs - Rp)/2 and the retardance beyond an
-                            # ideal mirror's (reflection: x + i y = -sqrt(Rs Rp) exp(i delta_r)) or a bare
-                            # transmission's (x + i y = sqrt(Ts Tp) exp(i delta_t)); compile/pack.py's layout
-                            Ar = R
-                            At = T
-                            if not tir:
-                                Br = coat_R[1, cc, line]
-                                Bt = coat_T[1, cc, line]
-                            a = math.sqrt(max(Ar * Ar - Br * Br, 0.0))
-                            xr = -a * math.cos(coat_R[2, cc, line])
-                            yr = -a * math.sin(coat_R[2, cc, line])
-                            a = math.sqrt(max(At * At - Bt * Bt, 0.0))
-                            xt = a * math.cos(coat_T[2, cc, line])
-                            yt = a * math.sin(coat_T[2, cc, line])
-                    elif it == IF_METAL:
-                        # a metal: Fresnel with the complex index n + i k (coat_R, coat_T hold n and k), no T
-                        Ar, Br, xr, yr = metal_mueller(abs(ci), med_n[m1, line], coat_R[0, o_coat[o], line],
-                                                       coat_T[0, o_coat[o], line])
-                        R = Ar
-                        T = 0.0
-                    elif not F_POLAR or it == IF_FRESNEL:
-                        if F_POLAR:
-                            Ar, Br, xr, yr, At, Bt, xt = fresnel_mueller(abs(ci), med_n[m1, line], med_n[m2, line])
-                            R = 0.0
-                        else:
-                            R = fresnel_unpolarized(abs(ci), med_n[m1, line], med_n[m2, line])
-                        T = 1.0 - R
-                    else:
-                        R = 0.0
-                        T = 1.0
+                    R, T, Ar, Br, xr, yr, At, Bt, xt, yt = _specular(MD, it, o_coat[o], line, ci, m1, m2)
                     if F_POLAR:
-                        # into the frame of the interface: e1 = s (normal to the plane of incidence), or a
-                        # polarizer's or retarder's axis (the object's local x turned by its angle about z)
-                        ex, ey, ez = frame(dx, dy, dz, ex, ey, ez)
-                        if it == IF_POLARIZER or it == IF_RETARDER:
-                            ca = math.cos(o_pol[o, 0])
-                            sa = math.sin(o_pol[o, 0])
-                            r = SF_R
-                            snx, sny, snz = frame(dx, dy, dz, ca * s_f[j, r] + sa * s_f[j, r + 1],
-                                                  ca * s_f[j, r + 3] + sa * s_f[j, r + 4],
-                                                  ca * s_f[j, r + 6] + sa * s_f[j, r + 7])
-                        else:
-                            snx, sny, snz = perpendicular(dx, dy, dz, nwx, nwy, nwz, ex, ey, ez)
-                        stq, stu = rotate(dx, dy, dz, ex, ey, ez, stq, stu, snx, sny, snz)
-                        ex = snx
-                        ey = sny
-                        ez = snz
-                        if it == IF_FRESNEL:
-                            R = Ar + Br * stq
-                            T = 1.0 - R
-                        elif it == IF_METAL:
-                            R = Ar + Br * stq
-                        elif it == IF_SPLIT:
-                            R = Ar + Br * stq
-                            T = At + Bt * stq
-                        elif it == IF_POLARIZER:
-                            T = 0.5 * (1.0 + stq)
+                        R, T, stq, stu, ex, ey, ez = _interface_frame(it, o_pol, o, s_f, j, dx, dy, dz, nwx, nwy, nwz,
+                                                                      ex, ey, ez, stq, stu, R, T, Ar, Br, At, Bt)
                     ev += 1
                     evkind = EV_A
                     # which scatter model applies here: an object's SCATTER specs, tried in order
-                    sc = -1
-                    sc_n = 1
-                    sc_tgt = -1
                     mk = 0
-                    if F_SCATTER and o_sc_cnt[o] > 0:
-                        for qq in range(o_sc_cnt[o]):
-                            spn = o_sc_first[o] + qq
-                            kd = sp_kind[spn]
-                            if F_MAPS and kd > 0:
-                                lat, lon = geodetic(lx, ly, lz)
-                                mp = sp_map[spn]
-                                v = map_value(map_data, map_off[mp], map_nlat[mp], map_nlon[mp], lat, lon)
-                                if kd == 1:
-                                    cl = int(v)
-                                    if cl >= 0 and cl < sp_cls_n[spn]:
-                                        sc = cls_models[sp_cls_off[spn] + cl]
-                                else:
-                                    uc, _u = uniform2(seed, i, ev, path * 64 + 59 - qq)
-                                    if uc < v:
-                                        sc = sp_model[spn]
-                                    else:
-                                        continue
-                            else:
-                                sc = sp_model[spn]
-                            sc_n = sp_rays[spn]
-                            sc_tgt = sp_tgt[spn]
-                            break
+                    sc, sc_n, sc_tgt = _scatter_spec(SC, o_sc_first[o], o_sc_cnt[o], lx, ly, lz, seed, i, ev, path)
                     nvx = nwx if front else -nwx      # the normal on the incoming side
                     nvy = nwy if front else -nwy
                     nvz = nwz if front else -nwz
@@ -1146,7 +1242,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                     ev_nee = False
                     if F_MAPS and F_IMPORTANCE and not nee and o_sc_cnt[o] > 0:
                         for qq in range(o_sc_cnt[o]):
-                            if sp_kind[o_sc_first[o] + qq] == 2:
+                            if sp_kind[o_sc_first[o] + qq] == SPEC_FRACTION_MAP:
                                 ev_nee = True
                                 break
                     if F_MAPS and F_IMPORTANCE and ev_nee:
@@ -1157,11 +1253,11 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                             kd = sp_kind[spn]
                             pmix = preach
                             mq = -1
-                            if kd > 0:
+                            if kd != SPEC_MODEL:
                                 lat, lon = geodetic(lx, ly, lz)
                                 mp = sp_map[spn]
                                 vq = map_value(map_data, map_off[mp], map_nlat[mp], map_nlon[mp], lat, lon)
-                                if kd == 1:
+                                if kd == SPEC_CLASS_MAP:
                                     cl = int(vq)
                                     if cl >= 0 and cl < sp_cls_n[spn]:
                                         mq = cls_models[sp_cls_off[spn] + cl]
@@ -1176,34 +1272,12 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                 preach = 0.0
                             tq = sp_tgt[spn]
                             if mq >= 0 and tq >= 0 and pmix > 0.0:
-                                mkq = mod_kind[mq]
-                                Pq = mod_P[mq]
                                 nr = sp_rays[spn]
-                                for q in range(nr):
-                                    qd = kc + q
-                                    v0, v1 = uniform2(seed, i, ev, path * 64 + 8 + 2 * qd)
-                                    ox_, oy_, oz_, om = _toward(phx, phy, phz, plx, ply, plz, o_bc, o_br, tq, v0, v1)
-                                    co = ox_ * nvx + oy_ * nvy + oz_ * nvz
-                                    f = _bsdf_eval(mkq, Pq, line, -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz)
-                                    nq = nu = nv = nex = ney = nez = 0.0
-                                    if F_POLAR:
-                                        pf, nq, nu, nv, nex, ney, nez = _bsdf_mueller(
-                                            mkq, Pq, line, -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz, stq, stu, stv,
-                                            ex, ey, ez)
-                                        f *= pf
-                                    cw = w * pmix * f * abs(co) * om / nr
-                                    if nee_cut > 0.0 and cw > 0.0:
-                                        cw = _nee_roulette(cw, w * pmix * om / (math.pi * nr), nee_cut,
-                                                           uniform2(seed, i, ev, path * 64 + 9 + 2 * qd)[0])
-                                    if cw > 0.0 and sp < SMAX:
-                                        if F_HISTORY and ev - 1 < H:
-                                            hist[ev - 1] = o * 8 + EV_S
-                                        _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev,
-                                              -1.0, 1.0, npath, FL_SCATTERED, j, opl, sx0, sy0, hist, H,
-                                              nq, nu, nv, nex, ney, nez)
-                                        sp += 1
-                                        npath += 1
-                                        led[c, r_imp, C_ABS, line] -= cw
+                                sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, (seed, i, ev, path),
+                                                         kc, mod_kind[mq], mod_P[mq], tq, nr, w * pmix, nee_cut, o_bc,
+                                                         o_br, (phx, phy, phz, plx, ply, plz), (dx, dy, dz),
+                                                         (nvx, nvy, nvz), (stq, stu, stv, ex, ey, ez), o, j, opl, sx0,
+                                                         sy0, hist, H)
                                 kc += nr
                             if preach <= 0.0:
                                 break
@@ -1218,7 +1292,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                             diffuse = Rb + Tb
                             if nee:
                                 T = _bsdf_direct(mk, Pm, line, cos_i)
-                            if F_REFRACT and it == 3 and med_n[m1, line] != med_n[m2, line]:
+                            if F_REFRACT and it == IF_FRESNEL and med_n[m1, line] != med_n[m2, line]:
                                 # a slab on a boundary between two media (atmosphere shells): Fresnel
                                 # reflection at the boundary first, the slab takes the rest
                                 if F_POLAR:
@@ -1236,31 +1310,10 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                         # rays sent toward the target (next-event estimation), exact weights
                         tgt = sc_tgt
                         if F_IMPORTANCE and tgt >= 0 and not nee and not ev_nee:
-                            nr = sc_n
-                            for q in range(nr):
-                                v0, v1 = uniform2(seed, i, ev, path * 64 + 8 + 2 * q)
-                                ox_, oy_, oz_, om = _toward(phx, phy, phz, plx, ply, plz, o_bc, o_br, tgt, v0, v1)
-                                co = ox_ * nvx + oy_ * nvy + oz_ * nvz
-                                f = _bsdf_eval(mk, Pm, line, -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz)
-                                nq = nu = nv = nex = ney = nez = 0.0
-                                if F_POLAR:
-                                    pf, nq, nu, nv, nex, ney, nez = _bsdf_mueller(
-                                        mk, Pm, line, -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz, stq, stu, stv, ex, ey,
-                                        ez)
-                                    f *= pf
-                                cw = w * f * abs(co) * om / nr
-                                if nee_cut > 0.0 and cw > 0.0:
-                                    cw = _nee_roulette(cw, w * om / (math.pi * nr), nee_cut,
-                                                       uniform2(seed, i, ev, path * 64 + 9 + 2 * q)[0])
-                                if cw > 0.0 and sp < SMAX:
-                                    if F_HISTORY and ev - 1 < H:
-                                        hist[ev - 1] = o * 8 + EV_S
-                                    _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev, -1.0,
-                                          1.0, npath, FL_SCATTERED, j, opl, sx0, sy0, hist, H, nq, nu, nv,
-                                          nex, ney, nez)
-                                    sp += 1
-                                    npath += 1
-                                    led[c, r_imp, C_ABS, line] -= cw
+                            sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, (seed, i, ev, path), 0,
+                                                     mk, Pm, tgt, sc_n, w, nee_cut, o_bc, o_br,
+                                                     (phx, phy, phz, plx, ply, plz), (dx, dy, dz), (nvx, nvy, nvz),
+                                                     (stq, stu, stv, ex, ey, ez), o, j, opl, sx0, sy0, hist, H)
                         if nee:
                             diffuse = 0.0      # rays aimed at a target follow only the specular parts
                     tot = R + T + diffuse
@@ -1306,7 +1359,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                     cd = math.cos(o_pol[o, 1])
                                     sd = math.sin(o_pol[o, 1])
                                     stu, stv = stu * cd - stv * sd, stu * sd + stv * cd
-                            if F_REFRACT and it >= 2:
+                            if F_REFRACT and it >= IF_SPLIT:
                                 n1 = med_n[m1, line]
                                 n2 = med_n[m2, line]
                                 # rays aimed at a target cross weak index steps (gas layers) straight: their
@@ -1333,7 +1386,7 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                                 v2, _v = uniform2(seed, i, ev, path * 64 + 2 + 2 * q)
                                 sx, sy, sz, sw, sdelta = _bsdf_sample(mk, Pm, line, wi_x, wi_y, wi_z, nvx, nvy, nvz,
                                                                       v0, v1, v2)
-                                if F_REFRACT and sdelta and it == 3 and med_n[m1, line] != med_n[m2, line]:
+                                if F_REFRACT and sdelta and it == IF_FRESNEL and med_n[m1, line] != med_n[m2, line]:
                                     # a slab's unscattered beam crosses the boundary: Snell refraction
                                     sx, sy, sz, _tir = refract(sx, sy, sz, nwx, nwy, nwz, med_n[m1, line],
                                                                med_n[m2, line])
@@ -1416,46 +1469,13 @@ def trace_batch(first, n, total, seed, level, halt, nee_cut, r_imp,
                             flags |= FL_HALTED
                 if F_RECORDS:
                     if nrec < rcap:
-                        rec_pos[c, nrec, 0] = hx
-                        rec_pos[c, nrec, 1] = hy
-                        rec_pos[c, nrec, 2] = hz
-                        if rec_pos.shape[2] >= 6:
-                            # the low part of the double-double position: hx + hlx is exact to ~1e-16 relative
-                            rec_pos[c, nrec, 3] = hlx
-                            rec_pos[c, nrec, 4] = hly
-                            rec_pos[c, nrec, 5] = hlz
-                        rec_dir[c, nrec, 0] = adx
-                        rec_dir[c, nrec, 1] = ady
-                        rec_dir[c, nrec, 2] = adz
-                        rec_w[c, nrec] = aw
-                        rec_line[c, nrec] = line
-                        rec_src[c, nrec] = s
-                        rec_obj[c, nrec] = last
-                        rec_ev[c, nrec] = ev
-                        rec_flags[c, nrec] = flags
-                        rec_opl[c, nrec] = opl
-                        rec_start[c, nrec, 0] = sx0
-                        rec_start[c, nrec, 1] = sy0
-                        for h in range(H):
-                            rec_hist[c, nrec, h] = int(hist[h])
+                        _record(rec_pos, rec_dir, rec_w, rec_line, rec_src, rec_obj, rec_ev, rec_flags, rec_hist,
+                                rec_opl, rec_start, c, nrec, (hx, hy, hz, hlx, hly, hlz), (adx, ady, adz), aw, line,
+                                s, last, ev, flags, opl, sx0, sy0, hist, H)
                     nrec += 1
-            for q in range(nt):
-                inc_sq[c, touched[q], line] += acc[touched[q]] * acc[touched[q]]
-                acc[touched[q]] = 0.0
+            _close_source_ray(inc_sq, c, line, acc, touched, nt)
             if ndep - dep0 > 1 and ndep <= cap:
-                # one deposit per pixel and source ray (reduce_batch squares each deposit)
-                kk = dep0
-                for qa in range(dep0, ndep):
-                    qb = dep0
-                    while qb < kk and dep_idx[c, qb] != dep_idx[c, qa]:
-                        qb += 1
-                    if qb < kk:
-                        dep_w[c, qb] += dep_w[c, qa]
-                    else:
-                        dep_idx[c, kk] = dep_idx[c, qa]
-                        dep_w[c, kk] = dep_w[c, qa]
-                        kk += 1
-                ndep = kk
+                ndep = _merge_deposits(dep_idx, dep_w, c, dep0, ndep)
         dep_n[c] = ndep if ndep <= cap else -1
         rec_n[c] = nrec if nrec <= rcap else -1
 

@@ -23,7 +23,7 @@ LAYERS = [
                             "irtlang.lang.spec", "irtlang.lang.diagnostics", "irtlang.lang.units"]),
     ("scene model", ["irtlang.model"]),
     ("kernel math", ["irtlang.kernels", "irtlang.kernels.rng", "irtlang.kernels.sampling", "irtlang.kernels.optics",
-                     "irtlang.kernels.geometry", "irtlang.kernels.bvh"]),
+                     "irtlang.kernels.geometry", "irtlang.kernels.bvh", "irtlang.kernels.layout"]),
     ("file formats", ["irtlang.io"]),
     ("plugins", ["irtlang.plugins"]),
     ("earth", ["irtlang.earth"]),

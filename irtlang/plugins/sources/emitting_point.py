@@ -11,6 +11,9 @@ toward the target, weighted by the solid angle it subtends.
 | AXIS | 1 | cone axis (default 0 0 1) |
 | TOWARD | object | importance target |
 """
+import numba
+
+from ...kernels.sampling import uniform_cone
 import math
 
 from ...core.diagnostics import error
@@ -35,3 +38,26 @@ def build(b, ctx) -> dict:
     n = math.hypot(*ax)
     return {"position": (b["x"], b["y"], b["z"]), "rays": b["rays"], "cone": b.get("cone", 3.141592653589793),
             "axis": tuple(x / n for x in ax), "toward": b.get("toward")}
+
+
+# ---- the kernel (the contract: irtlang/plugins/sources/__init__.py) ----
+@numba.njit(cache=True, inline="always")
+def emit(SRC, s, q, u0, u1):
+    """The point itself; its AXIS (par[2:5]) is the emission cone's axis."""
+    return 0.0, 0.0, 0.0, SRC.par[s, 2], SRC.par[s, 3], SRC.par[s, 4]
+
+
+@numba.njit(cache=True, inline="always")
+def lambert(SRC, s, u2, u3):
+    """Isotropic within the CONE half-angle par[1] (not cosine-weighted: a point has no surface)."""
+    x, y, z = uniform_cone(u2, u3, math.cos(SRC.par[s, 1]))
+    return x, y, z, 1.0
+
+
+@numba.njit(cache=True, inline="always")
+def toward(SRC, s, c, omega):
+    """Uniform emission in the CONE: omega over the cone's solid angle, zero outside it."""
+    cmin = math.cos(SRC.par[s, 1])
+    if c < cmin:
+        return 0.0
+    return omega / (2.0 * math.pi * (1.0 - cmin))

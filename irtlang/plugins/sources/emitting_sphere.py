@@ -10,6 +10,9 @@ object and weighted exactly by the solid angle it subtends, so no ray is wasted.
 | RAYS | count | rays per wavelength line |
 | TOWARD | object | importance target |
 """
+import numba
+
+from ...kernels.sampling import uniform_sphere
 from ...lang.spec import Form, V, positive
 from ...core.units import LENGTH
 from ._common import RAYS, TOWARD
@@ -22,3 +25,13 @@ EXAMPLE = "EMITTING SPHERE 0 0 0 6.957e5 km RAYS 1000"
 
 def build(b, ctx) -> dict:
     return {"centre": (b["x"], b["y"], b["z"]), "radius": b["radius"], "rays": b["rays"], "toward": b.get("toward")}
+
+
+# ---- the kernel (the contract: irtlang/plugins/sources/__init__.py) ----
+@numba.njit(cache=True, inline="always")
+def emit(SRC, s, q, u0, u1):
+    """A uniform point of the sphere; its outward normal is the Lambertian axis (the default ``lambert`` and
+    ``toward``: cosine-weighted over the outer hemisphere)."""
+    x, y, z = uniform_sphere(u0, u1)
+    r = SRC.par[s, 0]
+    return r * x, r * y, r * z, x, y, z

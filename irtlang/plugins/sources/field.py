@@ -8,6 +8,11 @@ the direction is normalize(tan(angle_x), tan(angle_y), s) in the grid's local fr
 |---|---|---|
 | angle_x angle_y | angle (bare: deg) | field angles along local x and y; a unit after the pair applies to both |
 """
+import math
+
+import numba
+
+from ...kernels.layout import DIR_FIELD
 from ...lang.spec import Form, Vs
 from ...core.units import ANGLE
 
@@ -21,3 +26,16 @@ EXAMPLE = "GRID DISK Z -100 150 RAYS 1000\nSOURCE FIELD 0.05 0.02 deg"
 def build(b, ctx) -> dict:
     ax, ay = b["angles"]
     return {"angle_x": ax, "angle_y": ay}
+
+
+# ---- the kernel (the contract: irtlang/plugins/sources/__init__.py) ----
+DIRECTION_CODES = (DIR_FIELD,)
+
+
+@numba.njit(cache=True, inline="always")
+def direction(SRC, s, lx, ly, lz):
+    """The field angles par[6], par[7] about the grid's normal, toward the plane's side par[8] (+-1)."""
+    tx = math.tan(SRC.par[s, 6])
+    ty = math.tan(SRC.par[s, 7])
+    m = math.sqrt(tx * tx + ty * ty + 1.0)
+    return tx / m, ty / m, SRC.par[s, 8] / m

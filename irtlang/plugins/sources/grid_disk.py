@@ -9,6 +9,10 @@ square lattice of about n points clipped to the disk, or n random points (unifor
 | radius | length | disk radius |
 | RAYS | count | number of rays (approximate for the lattice) |
 """
+import numba
+
+from ...kernels.layout import SAMPLE_RANDOM
+from ...kernels.sampling import uniform_disk
 from ...lang.spec import Axis, Form, V, positive
 from ...core.units import LENGTH
 from ._common import RANDOM, RAYS
@@ -22,3 +26,28 @@ EXAMPLE = "GRID DISK Z -100 150 RAYS 1000 RANDOM\nSOURCE DIRECTION 0 0 1"
 def build(b, ctx) -> dict:
     return {"axis": b["axis"], "position": b["position"], "radius": b["radius"], "rays": b["rays"],
             "random": bool(b.get("random", False))}
+
+
+# ---- the kernel (the contract: irtlang/plugins/sources/__init__.py) ----
+@numba.njit(cache=True, inline="always")
+def emit(SRC, s, q, u0, u1):
+    """A random point of the disk, or point q of its lattice: the row table (irtlang.compile.pack.
+    disk_lattice_rows: per row its first point and its y index, then an end marker) gives q's row."""
+    par = SRC.par
+    if SRC.random[s] == SAMPLE_RANDOM:
+        x, y = uniform_disk(u0, u1)
+        return par[s, 0] * x, par[s, 0] * y, 0.0, 0.0, 0.0, 1.0
+    pts = SRC.pts
+    r0 = SRC.pts_off[s]
+    lo = 0
+    hi = int(par[s, 2])        # rows; entry hi is the end marker
+    while hi - lo > 1:
+        mid = (lo + hi) >> 1
+        if pts[r0 + mid, 0] <= q:
+            lo = mid
+        else:
+            hi = mid
+    start = pts[r0 + lo, 0]
+    amax = (pts[r0 + lo + 1, 0] - start - 1.0) * 0.5
+    h = par[s, 1]
+    return (q - start - amax) * h, pts[r0 + lo, 1] * h, 0.0, 0.0, 0.0, 1.0

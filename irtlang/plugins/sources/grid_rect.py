@@ -9,6 +9,9 @@ nx*ny random points with RANDOM.  Local x, y follow the cyclic order of PLANE.  
 | x_min x_max y_min y_max | length | extent in local x and y |
 | nx ny | count | points along x and y |
 """
+import numba
+
+from ...kernels.layout import SAMPLE_RANDOM, SAMPLE_STRATIFIED
 from ...core.diagnostics import error
 from ...lang.spec import Axis, Form, V, positive
 from ...core.units import LENGTH
@@ -27,3 +30,28 @@ def build(b, ctx) -> dict:
         raise error(b.span, "GRID RECT needs x_min <= x_max and y_min <= y_max")
     keys = ("axis", "position", "x_min", "x_max", "y_min", "y_max", "nx", "ny")
     return {**{k: b[k] for k in keys}, "random": bool(b.get("random", False)), "rays": b["nx"] * b["ny"]}
+
+
+# ---- the kernel (the contract: irtlang/plugins/sources/__init__.py) ----
+@numba.njit(cache=True, inline="always")
+def emit(SRC, s, q, u0, u1):
+    """Point q of the nx x ny lattice (or a random point; or one random point in cell q: camera pixels); the
+    Lambertian axis of a camera's pixels, on the side par[8] (+-1)."""
+    par = SRC.par
+    nx = int(par[s, 4])
+    ny = int(par[s, 5])
+    if SRC.random[s] == SAMPLE_RANDOM:
+        fx = u0
+        fy = u1
+    else:
+        iy = q // nx
+        ix = q - iy * nx
+        if SRC.random[s] >= SAMPLE_STRATIFIED:     # stratified: one random point in each lattice cell
+            fx = (ix + u0) / nx
+            fy = (iy + u1) / ny
+        else:
+            fx = (ix + 0.5) / nx
+            fy = (iy + 0.5) / ny
+    lx = par[s, 0] + (par[s, 1] - par[s, 0]) * fx
+    ly = par[s, 2] + (par[s, 3] - par[s, 2]) * fy
+    return lx, ly, 0.0, 0.0, 0.0, par[s, 8]

@@ -1,4 +1,6 @@
 """Apertures shared by PLANE and CONIC: RECT hx hy, DISK r, ANNULUS r_in r_out, ELLIPSE a b (local x, y)."""
+import math
+
 from ...core.diagnostics import error
 from ...lang.spec import Clause, V, positive, nonneg
 from ...core.units import LENGTH
@@ -28,6 +30,14 @@ def aperture_from(b) -> Aperture | None:
     if k == "ANNULUS" and vals[0] >= vals[1]:
         raise error(b.spans["kw:ANNULUS"], "ANNULUS needs r_in < r_out")
     return Aperture(k, vals, b.spans["kw:" + k])
+
+
+def bounding_radius(ap: Aperture) -> float:
+    """outer_radius, with a RECT's corner distance as math.hypot rounds it (the bounding spheres TOWARD aims
+    at have always used hypot: the same bits as before the surface plugins packed their own bounds)."""
+    if ap.kind == "RECT":
+        return math.hypot(ap.params[0], ap.params[1])
+    return outer_radius(ap)
 
 
 def outer_radius(ap: Aperture) -> float:

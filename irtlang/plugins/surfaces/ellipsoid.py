@@ -8,6 +8,10 @@ normal pointing outward.
 | a b c | length | semi-axes along x, y, z (> 0) |
 | AT x y z | length | centre (default the origin) |
 """
+import numba
+
+from ...kernels.geometry import drop_leaving_root, ellipsoid_normal, hit_ellipsoid
+from ...kernels.layout import SF_PAR
 from ...lang.spec import Clause, Form, V, Vs, positive
 from ...core.units import LENGTH
 from ...model.scene import Surface, Transform
@@ -16,8 +20,38 @@ KIND = "ELLIPSOID"
 FORM = Form((V("a", LENGTH, check=positive), V("b", LENGTH, check=positive), V("c", LENGTH, check=positive)),
             (Clause("AT", (Vs("centre", LENGTH, n=3),), doc="centre"),))
 EXAMPLE = "SURFACE\n  ELLIPSOID 6378.137 km 6378.137 km 6356.752 km AT 0 0 0\nOBJECT 'earth'"
+FEATURE = "quadric"
 
 
 def build(b, ctx) -> Surface:
     centre = tuple(b.get("centre", (0.0, 0.0, 0.0)))
     return Surface(KIND, {"a": b["a"], "b": b["b"], "c": b["c"]}, Transform(T=centre), None, b.span)
+
+
+# ---- packing and the kernel (the contract: irtlang/plugins/surfaces/__init__.py) ----
+def pack(s: Surface) -> dict:
+    """par: the semi-axes a, b, c (m) along local x, y, z."""
+    return {"par": (s.params["a"], s.params["b"], s.params["c"])}
+
+
+def bounds(s: Surface) -> tuple:
+    return (0.0, 0.0, 0.0, max(s.params["a"], s.params["b"], s.params["c"]))
+
+
+def size(s: Surface) -> float:
+    return max(s.params["a"], s.params["b"], s.params["c"])
+
+
+@numba.njit(cache=True, inline="always")
+def hit(S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
+    f = S.f
+    t1, t2 = hit_ellipsoid(ox, oy, oz, dx, dy, dz, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_PAR + 2])
+    if leaving:
+        t1, t2 = drop_leaving_root(t1, t2)
+    return t1, t2, -1
+
+
+@numba.njit(cache=True, inline="always")
+def normal(S, j, x, y, z, face):
+    f = S.f
+    return ellipsoid_normal(x, y, z, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_PAR + 2])
