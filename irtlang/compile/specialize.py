@@ -55,8 +55,8 @@ def bsdf_dispatch(kinds) -> str:
     return "\n".join(lines) + "\n"
 
 
-_SURFACE_FUNCS = {"hit": ("S, j, ox, oy, oz, dx, dy, dz, tmin, leaving", "np.inf, np.inf, -1"),
-                  "normal": ("S, j, x, y, z, face", "0.0, 0.0, 1.0")}
+_SURFACE_FUNCS = {"hit": ("f, si, S, j, ox, oy, oz, dx, dy, dz, tmin, leaving", "np.inf, np.inf, -1"),
+                  "normal": ("f, si, S, j, x, y, z, face", "0.0, 0.0, 1.0")}
 
 
 def surface_kinds(features: Features) -> list:

@@ -39,6 +39,7 @@ from .layout import (AP_ANNULUS, AP_DISK, AP_NONE, AP_RECT, C_ABS, C_INC, C_REF,
                      SAMPLE_SPECTRAL, SF_AP, SF_BS, SF_HOLE, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
                      SI_AXIS, SI_FAM, SI_FIDX, SI_KIND, SI_OBJ, SPEC_CLASS_MAP, SPEC_FRACTION_MAP,
                      SPEC_MODEL)
+from .layout import Detectors, Media, Scatter, Sources, Surfaces
 from .optics import fresnel_unpolarized, refract
 from .polar import (azimuth_angle, diattenuate, frame, fresnel_mueller, metal_mueller, perpendicular, rayleigh_mueller,
                     rotate, scatter_stokes)
@@ -142,7 +143,7 @@ def _aperture_ok(kind, f, j, x, y):
 
 # ---------------------------------------------------------------------------------------------- intersection
 @numba.njit(cache=True, inline="always")
-def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, S, jlast):
+def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, S, jlast):
     """Nearest surface hit: (t, surface, lx, ly, lz, face).  On `jlast`, the surface the ray has just
     left, the root nearest 0 (the departure point itself) is dropped first: at grazing departure the origin's
     rounding divided by the grazing angle can push that root past any tolerance."""
@@ -152,8 +153,6 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, S, jlast):
     bly = 0.0
     blz = 0.0
     bface = -1
-    f = S.f
-    si = S.i
     fam_last = si[jlast, SI_FAM] if F_SHELLS and jlast >= 0 else -1
     for j in range(si.shape[0]):
         if F_SHELLS and fam_last >= 0 and si[j, SI_FAM] == fam_last and abs(si[j, SI_FIDX] - si[jlast, SI_FIDX]) > 1:
@@ -198,7 +197,7 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, S, jlast):
                 continue
         tmin = EPS_SELF * max(f[j, SF_SIZE], abs(ox), abs(oy), abs(oz))
         # the kind's own crossings (its plugin's ``hit``; the dispatch is generated from the registry)
-        t1, t2, face = _surface_hit(k, S, j, ox, oy, oz, ldx, ldy, ldz, tmin, j == jlast)
+        t1, t2, face = _surface_hit(k, f, si, S, j, ox, oy, oz, ldx, ldy, ldz, tmin, j == jlast)
         apk = si[j, SI_APK]
         if t1 > tmin and t1 < best_t:
             x = ox + t1 * ldx
@@ -225,10 +224,10 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, S, jlast):
 
 
 @numba.njit(cache=True, inline="always")
-def _normal(j, k, lx, ly, lz, face, S):
+def _normal(j, k, lx, ly, lz, face, f, si, S):
     """World unit normal of surface j at local point (lx, ly, lz)."""
-    nx, ny, nz = _surface_normal(k, S, j, lx, ly, lz, face)
-    return _rot(S.f, S.i, j, nx, ny, nz)
+    nx, ny, nz = _surface_normal(k, f, si, S, j, lx, ly, lz, face)
+    return _rot(f, si, j, nx, ny, nz)
 
 
 # ---------------------------------------------------------------------------------------------- maps
@@ -520,13 +519,13 @@ from irtlang.plugins.surfaces.plane import normal as _normal_0
 
 
 @numba.njit(cache=True, inline="always")
-def _surface_hit(k, S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
-    return _hit_0(S, j, ox, oy, oz, dx, dy, dz, tmin, leaving)
+def _surface_hit(k, f, si, S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
+    return _hit_0(f, si, S, j, ox, oy, oz, dx, dy, dz, tmin, leaving)
 
 
 @numba.njit(cache=True, inline="always")
-def _surface_normal(k, S, j, x, y, z, face):
-    return _normal_0(S, j, x, y, z, face)
+def _surface_normal(k, f, si, S, j, x, y, z, face):
+    return _normal_0(f, si, S, j, x, y, z, face)
 # ---- end of surface dispatch ----
 
 
@@ -934,7 +933,7 @@ def _merge_deposits(dep_idx, dep_w, c, dep0, ndep):
 
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
     """Trace source rays first .. first+n-1 with every path they spawn.  Per chunk c: led[c] (rows, 5, L),
     inc_sq[c] (rows, L), deposits dep_idx/dep_w[c, :dep_n[c]] and records rec_*[c, :rec_n[c]] (one per
@@ -942,70 +941,31 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
     Rows: objects, absorbing media, [IMPORTANCE], EMITTED, ESCAPED, HALTED, LOST (the last four).
     The arguments are the structures of ``irtlang.kernels.layout`` (Settings, Surfaces, Objects, Scatter, Media,
     Detectors, Sources, Tallies, Records); their fields become the locals the trace reads."""
-    # fields by attribute, never by tuple unpacking: Numba 0.6x loses a parallel loop's writes to an array
-    # unpacked from a tuple (`a, b = T` then `b[c] = x` in the prange is dropped; tests/unit/test_kernel_layout.py)
-    first = settings.first
-    n = settings.n
-    total = settings.total
-    seed = settings.seed
-    level = settings.level
-    halt = settings.halt
-    nee_cut = settings.nee_cut
-    r_imp = settings.r_imp
-    s_f = S.f
-    s_i = S.i
-    o_itf = O.itf
-    o_coat = O.coat
-    o_back = O.back
-    o_front = O.front
-    o_det = O.det
-    o_pol = O.pol
-    o_bc = O.bc
-    o_br = O.br
-    o_sc_first = O.sc_first
-    o_sc_cnt = O.sc_cnt
-    sp_kind = SC.kind
-    sp_model = SC.model
-    sp_map = SC.map
-    sp_cls_off = SC.cls_off
-    sp_cls_n = SC.cls_n
-    sp_rays = SC.rays
-    sp_tgt = SC.tgt
-    cls_models = SC.cls_models
-    map_data = SC.map_data
-    map_off = SC.map_off
-    map_nlat = SC.map_nlat
-    map_nlon = SC.map_nlon
-    mod_kind = SC.mod_kind
-    mod_P = SC.mod_P
-    mod_slab = SC.mod_slab
-    med_n = MD.n
-    med_alpha = MD.alpha
-    med_row = MD.row
-    med_sig = MD.sig
-    med_alb = MD.alb
-    med_g = MD.g
-    med_phase = MD.phase
-    med_depol = MD.depol
-    med_tgt = MD.tgt
-    med_nee = MD.nee
-    led = T.led
-    inc_sq = T.inc_sq
-    dep_idx = T.dep_idx
-    dep_w = T.dep_w
-    dep_n = T.dep_n
-    rec_pos = REC.pos
-    rec_dir = REC.dir
-    rec_w = REC.w
-    rec_line = REC.line
-    rec_src = REC.src
-    rec_obj = REC.obj
-    rec_ev = REC.ev
-    rec_flags = REC.flags
-    rec_hist = REC.hist
-    rec_opl = REC.opl
-    rec_start = REC.start
-    rec_n = REC.n
+    _trace_chunks(settings.first, settings.n, settings.total, settings.seed, settings.level, settings.halt,
+                  settings.nee_cut, settings.r_imp, S.f, S.i, S.mesh, S.bmin, S.bmax, S.child, S.count, S.tris, S.ids, S.fn, O.itf,
+                  O.coat, O.back, O.front, O.det, O.pol, O.bc, O.br, O.sc_first, O.sc_cnt, SC.kind, SC.model,
+                  SC.map, SC.cls_off, SC.cls_n, SC.rays, SC.tgt, SC.cls_models, SC.map_data, SC.map_off,
+                  SC.map_nlat, SC.map_nlon, SC.mod_kind, SC.mod_P, SC.mod_slab, MD.n, MD.alpha, MD.row, MD.sig,
+                  MD.alb, MD.g, MD.phase, MD.depol, MD.tgt, MD.nee, MD.coat_R, MD.coat_T, D.nx, D.ny, D.ext, D.off,
+                  D.qe, D.start, SRC.kind, SRC.dir, SRC.par, SRC.R, SRC.Th, SRC.Tl, SRC.n, SRC.off, SRC.w,
+                  SRC.random, SRC.toward, SRC.pts, SRC.pts_off, SRC.lmap, T.led, T.inc_sq, T.dep_idx, T.dep_w,
+                  T.dep_n, REC.pos, REC.dir, REC.w, REC.line, REC.src, REC.obj, REC.ev, REC.flags, REC.hist,
+                  REC.opl, REC.start, REC.n)
+
+
+@numba.njit(cache=True, parallel=True)
+def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, s_mesh, s_bmin, s_bmax, s_child,
+                  s_count, s_tris, s_ids, s_fn, o_itf, o_coat, o_back, o_front, o_det, o_pol, o_bc, o_br, o_sc_first, o_sc_cnt,
+                  sp_kind, sp_model, sp_map, sp_cls_off, sp_cls_n, sp_rays, sp_tgt, cls_models, map_data, map_off,
+                  map_nlat, map_nlon, mod_kind, mod_P, mod_slab, med_n, med_alpha, med_row, med_sig, med_alb, med_g,
+                  med_phase, med_depol, med_tgt, med_nee, md_coat_R, md_coat_T, d_nx, d_ny, d_ext, d_off, d_qe,
+                  d_start, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random,
+                  src_toward, src_pts, src_pts_off, src_lmap, led, inc_sq, dep_idx, dep_w, dep_n, rec_pos, rec_dir,
+                  rec_w, rec_line, rec_src, rec_obj, rec_ev, rec_flags, rec_hist, rec_opl, rec_start, rec_n):
+    """trace_batch's parallel loop over chunks, on the structures' fields as plain arguments: Numba optimizes a
+    parallel loop over plain array arguments better (a loop over namedtuple arguments ran 20 % slower, measured
+    on the telescope benchmark), and writes through a tuple inside it would be lost.  The structures the
+    helpers read are rebuilt per chunk from these arrays."""
     nrows = led.shape[1]
     r_emit = nrows - 4
     r_esc = nrows - 3
@@ -1015,8 +975,18 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
     cap = dep_idx.shape[1]
     rcap = rec_w.shape[1]
     H = rec_hist.shape[2]
-    src_dw = _collimated_dirs(SRC)
+    src_dw = _collimated_dirs(Sources(src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w,
+                                      src_random, src_toward, src_pts, src_pts_off, src_lmap))
     for c in numba.prange(nchunks):
+        # the structures the helpers read, from this function's arguments (see the docstring)
+        S = Surfaces(s_f, s_i, s_mesh, s_bmin, s_bmax, s_child, s_count, s_tris, s_ids, s_fn)
+        SC = Scatter(sp_kind, sp_model, sp_map, sp_cls_off, sp_cls_n, sp_rays, sp_tgt, cls_models, map_data,
+            map_off, map_nlat, map_nlon, mod_kind, mod_P, mod_slab)
+        MD = Media(med_n, med_alpha, med_row, med_sig, med_alb, med_g, med_phase, med_depol, med_tgt, med_nee,
+            md_coat_R, md_coat_T)
+        D = Detectors(d_nx, d_ny, d_ext, d_off, d_qe, d_start)
+        SRC = Sources(src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random,
+            src_toward, src_pts, src_pts_off, src_lmap)
         ndep = 0
         nrec = 0
         stack = np.empty((SMAX, SWP + H))
@@ -1110,13 +1080,13 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                         led[c, r_halt, C_ABS, line] += w
                         flags |= FL_HALTED
                         break
-                    t, j, lx, ly, lz, face = _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, S, jlast)
+                    t, j, lx, ly, lz, face = _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, s_f, s_i, S, jlast)
                     if j < 0:
                         led[c, r_esc, C_ABS, line] += w
                         flags |= FL_ESCAPED
                         break
                     k = s_i[j, SI_KIND]
-                    nwx, nwy, nwz = _normal(j, k, lx, ly, lz, face, S)
+                    nwx, nwy, nwz = _normal(j, k, lx, ly, lz, face, s_f, s_i, S)
                     o = s_i[j, SI_OBJ]
                     ci = -(dx * nwx + dy * nwy + dz * nwz)
                     if not (math.isfinite(t) and math.isfinite(ci)):

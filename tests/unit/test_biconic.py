@@ -53,8 +53,13 @@ def table(cx, cy, kx, ky, ap=None, a0=0.0, a1=0.0) -> layout.Surfaces:
                            ids=np.zeros(0, np.int64), fn=np.zeros((0, 3)))
 
 
+def _fsi(S):
+    """The plugin functions' leading arguments: the table's float and int columns, then the table."""
+    return S.f, S.i, S
+
+
 def hits(S, o, d, tmin=-INF, leaving=False):
-    t1, t2, face = B.hit(S, 0, *map(float, o), *map(float, d), float(tmin), leaving)
+    t1, t2, face = B.hit(S.f, S.i, S, 0, *map(float, o), *map(float, d), float(tmin), leaving)
     assert face == -1
     assert t1 <= t2
     return [t for t in (t1, t2) if t < INF]
@@ -167,7 +172,7 @@ def test_equal_sections_are_the_conic():
         for a, b in zip(got, ref):
             worst_t = max(worst_t, abs(a - b) / (scale + abs(b)))
             p = o + a * d
-            n_b = np.array(B.normal(table(*par), 0, *p, -1))
+            n_b = np.array(B.normal(*_fsi(table(*par)), 0, *p, -1))
             n_c = np.array(conic_normal_plain(p[0], p[1], c, k))
             worst_n = max(worst_n, np.abs(n_b - n_c).max())
     print(f"conic reduction: {compared} rays, max |dt| / (|o|/|d| + |t|) = {worst_t:.2e}, max |dn| = {worst_n:.2e}")
@@ -265,14 +270,14 @@ def test_normal_is_the_analytic_gradient():
         x, y, _z = point_inside(rng, par, vmax=0.99)
         gx, gy = sag_grad(x, y, *par)
         want = unit([-gx, -gy, 1.0])
-        got = np.array(B.normal(table(*par), 0, x, y, _z, -1))
+        got = np.array(B.normal(*_fsi(table(*par)), 0, x, y, _z, -1))
         worst = max(worst, np.abs(got - want).max())
         assert abs(np.linalg.norm(got) - 1) < 1e-15
     print(f"normal vs analytic gradient: max difference {worst:.2e}")
     assert worst < 1e-12
     # +axis at the vertex, whatever the signs of the curvatures
     for par in ((0.01, -0.02, 0.0, -3.0), (-1.0, -2.0, 1.0, 0.5), (0.5, 0.0, -1.0, 0.0)):
-        assert B.normal(table(*par), 0, 0.0, 0.0, 0.0, -1) == (0.0, 0.0, 1.0)
+        assert B.normal(*_fsi(table(*par)), 0, 0.0, 0.0, 0.0, -1) == (0.0, 0.0, 1.0)
 
 
 # ---------------------------------------------------------------------------------------------- 3. optics
@@ -295,7 +300,7 @@ def test_elliptic_paraboloid_focuses_each_section(Rx, Ry):
             assert len(ts) == 1
             p = o + ts[0] * d
             assert abs(p[2] - (p[0] ** 2 / (2 * Rx) + p[1] ** 2 / (2 * Ry))) <= 1e-13 * abs(R)
-            n = np.array(B.normal(S, 0, *p, -1))
+            n = np.array(B.normal(S.f, S.i, S, 0, *p, -1))
             r = d - 2 * (d @ n) * n
             focus = np.array([0.0, 0.0, R / 2])
             miss = np.linalg.norm(np.cross(focus - p, r))     # distance from the focus to the reflected ray
@@ -362,7 +367,7 @@ def test_leaving_a_biconic_skips_only_the_departure():
 def kernel_pick(S, o, d, tmin, leaving=False):
     """What the trace kernel (trace_kernel._nearest) takes from hit: the first of t1, t2 beyond tmin whose point
     passes the aperture test."""
-    t1, t2, _ = B.hit(S, 0, *o, *d, tmin, leaving)
+    t1, t2, _ = B.hit(S.f, S.i, S, 0, *o, *d, tmin, leaving)
     apk, a0, a1 = S.i[0, layout.SI_APK], S.f[0, layout.SF_AP], S.f[0, layout.SF_AP + 1]
     for t in (t1, t2):
         if tmin < t < INF and B._aperture_ok(apk, a0, a1, o[0] + t * d[0], o[1] + t * d[1]):

@@ -7,6 +7,8 @@ structures, used by packing and kernel alike.  Structural guards (no physics):
   a parallel loop (``T.n[c] = x`` or ``a, n = T; n[c] = x`` in the prange: the array keeps its old values), so
   trace_batch takes its output arrays out of the structures before the loop and helpers write only into arrays
   passed to them; calls pass at most 30 arguments (Python passes more as *args, which Numba cannot inline).
+  The parallel loop itself (_trace_chunks) takes the structures' fields as plain arguments: a parallel loop
+  over namedtuple arguments ran 20 % slower (the telescope benchmark).
 """
 from __future__ import annotations
 
@@ -49,9 +51,10 @@ def test_no_writes_through_a_structure_and_short_calls():
     bad = [m.group(0) for m in pat.finditer(src)]
     assert not bad, f"writes through a structure (lost in a parallel loop): {bad}"
     for n in ast.walk(_tree()):
-        if isinstance(n, ast.Call):
+        # (except trace_batch's one call of its parallel loop, _trace_chunks: a plain call, not inlined)
+        if isinstance(n, ast.Call) and getattr(n.func, "id", "") != "_trace_chunks":
             assert len(n.args) <= 30, f"line {n.lineno}: a call with {len(n.args)} arguments"
-        if isinstance(n, ast.FunctionDef):
+        if isinstance(n, ast.FunctionDef) and n.name != "_trace_chunks":
             assert len(n.args.args) <= 30, f"{n.name} takes {len(n.args.args)} arguments"
         if isinstance(n, ast.Assign) and isinstance(n.targets[0], ast.Tuple) and isinstance(n.value, ast.Name):
             assert n.value.id not in STRUCTS, \

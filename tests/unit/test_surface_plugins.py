@@ -92,7 +92,7 @@ def test_packed_row_bounds_hit_normal(kind, tmp_path):
         target = c + r * rng.uniform() ** (1 / 3) * v
         o = target + 3.0 * r * u
         d = (target - o) / np.linalg.norm(target - o)
-        t1, t2, face = mod.hit(S, j, *o, *d, 0.0, False)
+        t1, t2, face = mod.hit(S.f, S.i, S, j, *o, *d, 0.0, False)
         for t in (t1, t2):
             if not math.isfinite(t):
                 continue
@@ -103,10 +103,10 @@ def test_packed_row_bounds_hit_normal(kind, tmp_path):
             bounds = mod.bounds(surf)
             if math.isfinite(bounds[3]):
                 assert np.linalg.norm(p - c) <= bounds[3] * (1 + 1e-9) + 1e-12, "a crossing outside bounds"
-            n = np.array(mod.normal(S, j, *p, face))
+            n = np.array(mod.normal(S.f, S.i, S, j, *p, face))
             assert abs(np.linalg.norm(n) - 1.0) < 1e-12
             # leaving from this crossing: the departure point itself is not found again
-            tl1, tl2, _ = mod.hit(S, j, *p, *d, 1e-9 * max(float(mod.size(surf)), 1.0), kind != "MESH")
+            tl1, tl2, _ = mod.hit(S.f, S.i, S, j, *p, *d, 1e-9 * max(float(mod.size(surf)), 1.0), kind != "MESH")
             for tt in (tl1, tl2):
                 assert not (0 <= tt < 1e-9 * r), f"{kind}: leaving found its own departure point (t = {tt})"
     assert found > 20, f"{kind}: only {found} crossings found aiming at its bounding sphere"

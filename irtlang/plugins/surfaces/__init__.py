@@ -16,11 +16,13 @@ in the registry, and the kernel's dispatch over kinds is generated from the regi
   (relative, absolute; default (1e-9, 0));
 * ``size(surface) -> float``: the characteristic size without an aperture (the self-hit tolerance scales with
   it; with an aperture its outer radius is used);
-* ``hit(S, j, ox, oy, oz, dx, dy, dz, tmin, leaving) -> (t1, t2, face)``, njit inline: the ray's crossings with
-  surface j (S is the ``layout.Surfaces`` table) in its local frame, t1 <= t2, inf where absent, before the
+* ``hit(f, si, S, j, ox, oy, oz, dx, dy, dz, tmin, leaving) -> (t1, t2, face)``, njit inline: the ray's
+  crossings with surface j in its local frame (f, si: the surface table's float and int columns, S.f and S.i
+  passed apart, so the hot path reads them without going through the tuple; S the whole ``layout.Surfaces``
+  table, for a mesh's BVH), t1 <= t2, inf where absent, before the
   aperture test (the kernel applies it).  With ``leaving`` the ray starts on this surface (it has just left it):
   the root of the departure point itself must be dropped.  ``face``: a mesh's triangle row, else -1;
-* ``normal(S, j, x, y, z, face) -> (nx, ny, nz)``, njit inline: the local unit normal at a point of the surface.
+* ``normal(f, si, S, j, x, y, z, face) -> (nx, ny, nz)``, njit inline: the local unit normal at a point of the surface.
 
 Generic tests over the registry: tests/unit/test_surface_plugins.py.
 """

@@ -530,15 +530,13 @@ def biconic_normal(x, y, cx, cy, kx, ky):
 
 
 @numba.njit(cache=True, inline="always")
-def hit(S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
-    f = S.f
+def hit(f, si, S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
     _n, r1, r2, r3, r4 = biconic_roots(ox, oy, oz, dx, dy, dz, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_PAR + 2],
                                        f[j, SF_PAR + 3], leaving, tmin)
-    t1, t2 = _pick(r1, r2, r3, r4, tmin, S.i[j, SI_APK], f[j, SF_AP], f[j, SF_AP + 1], ox, oy, dx, dy)
+    t1, t2 = _pick(r1, r2, r3, r4, tmin, si[j, SI_APK], f[j, SF_AP], f[j, SF_AP + 1], ox, oy, dx, dy)
     return t1, t2, -1
 
 
 @numba.njit(cache=True, inline="always")
-def normal(S, j, x, y, z, face):
-    f = S.f
+def normal(f, si, S, j, x, y, z, face):
     return biconic_normal(x, y, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_PAR + 2], f[j, SF_PAR + 3])

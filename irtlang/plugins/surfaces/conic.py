@@ -88,11 +88,10 @@ def size(s: Surface) -> float:
 
 
 @numba.njit(cache=True, inline="always")
-def hit(S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
-    f = S.f
+def hit(f, si, S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
     cq = f[j, SF_PAR]
     kq = f[j, SF_PAR + 1]
-    n = S.i[j, SI_NASPH]
+    n = si[j, SI_NASPH]
     if leaving and n == 0:
         # leaving this conic: the origin is on the quadric, so the other root is -2B/A (no sqrt)
         kk = 1.0 + kq
@@ -112,9 +111,8 @@ def hit(S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
 
 
 @numba.njit(cache=True, inline="always")
-def normal(S, j, x, y, z, face):
-    f = S.f
-    n = S.i[j, SI_NASPH]
+def normal(f, si, S, j, x, y, z, face):
+    n = si[j, SI_NASPH]
     if n == 0:
         return conic_normal_plain(x, y, f[j, SF_PAR], f[j, SF_PAR + 1])
     return conic_normal(x, y, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_ASPH:SF_ASPH + n])

@@ -64,10 +64,10 @@ def size(s: Surface) -> float:
 
 
 @numba.njit(cache=True, inline="always")
-def hit(S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
+def hit(f, si, S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
     """The nearest triangle past tmin (the ray may meet the mesh again at once: no root is dropped); the face
     is its row in the scene's triangle tables."""
-    m = S.i[j, SI_MESH]
+    m = si[j, SI_MESH]
     a0 = S.mesh[m, MI_NODE_OFF]
     a1 = a0 + S.mesh[m, MI_NODE_N]
     b0 = S.mesh[m, MI_TRI_OFF]
@@ -78,7 +78,7 @@ def hit(S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
 
 
 @numba.njit(cache=True, inline="always")
-def normal(S, j, x, y, z, face):
+def normal(f, si, S, j, x, y, z, face):
     if face < 0:
         return 0.0, 0.0, 1.0
     return S.fn[face, 0], S.fn[face, 1], S.fn[face, 2]

@@ -52,7 +52,7 @@ def size(s: Surface) -> float:
 
 
 @numba.njit(cache=True, inline="always")
-def hit(S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
+def hit(f, si, S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
     if not ((oz > 0.0 and dz < 0.0) or (oz < 0.0 and dz > 0.0)):
         return math.inf, math.inf, -1      # the plane is behind, or parallel: hit_plane's root would be <= 0 or inf
     t1, t2 = hit_plane(ox, oy, oz, dx, dy, dz)
@@ -62,5 +62,5 @@ def hit(S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
 
 
 @numba.njit(cache=True, inline="always")
-def normal(S, j, x, y, z, face):
+def normal(f, si, S, j, x, y, z, face):
     return 0.0, 0.0, 1.0

@@ -40,13 +40,13 @@ def size(s: Surface) -> float:
 
 
 @numba.njit(cache=True, inline="always")
-def hit(S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
-    t1, t2 = hit_sphere(ox, oy, oz, dx, dy, dz, S.f[j, SF_PAR])
+def hit(f, si, S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
+    t1, t2 = hit_sphere(ox, oy, oz, dx, dy, dz, f[j, SF_PAR])
     if leaving:
         t1, t2 = drop_leaving_root(t1, t2)
     return t1, t2, -1
 
 
 @numba.njit(cache=True, inline="always")
-def normal(S, j, x, y, z, face):
+def normal(f, si, S, j, x, y, z, face):
     return sphere_normal(x, y, z)

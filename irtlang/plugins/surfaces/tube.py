@@ -54,8 +54,7 @@ def size(s: Surface) -> float:
 
 
 @numba.njit(cache=True, inline="always")
-def hit(S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
-    f = S.f
+def hit(f, si, S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
     t1, t2 = hit_tube(ox, oy, oz, dx, dy, dz, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_PAR + 2], f[j, SF_PAR + 3])
     if leaving:
         t1, t2 = drop_leaving_root(t1, t2)
@@ -63,6 +62,5 @@ def hit(S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
 
 
 @numba.njit(cache=True, inline="always")
-def normal(S, j, x, y, z, face):
-    f = S.f
+def normal(f, si, S, j, x, y, z, face):
     return tube_normal(x, y, z, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_PAR + 2], f[j, SF_PAR + 3])
