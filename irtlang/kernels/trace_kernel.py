@@ -598,7 +598,7 @@ def _push(stack, sp, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w0, ev, excl, 
 
 
 # ---------------------------------------------------------------------------------------------- event helpers
-# Inlined into trace_batch.  Numba loses a parallel loop's writes to an array reached through a tuple, so a
+# Inlined into _trace_chunks.  Numba loses a parallel loop's writes to an array reached through a tuple, so a
 # helper may READ a layout structure (S, SC, MD, D) but writes only into arrays passed to it as such.
 @numba.njit(cache=True, inline="always")
 def _deposit(D, dd, dep_idx, dep_w, c, ndep, cap, line, L, w, lx, ly, sx0, sy0, s_f, j, dx, dy, dz, ex, ey, ez,
