@@ -25,7 +25,8 @@ RUN = "import sys; from irtlang.cli import main; sys.exit(main())"
 TARGET_WARM = 1.5
 
 
-def _run_once(script: Path, cache: str, out: str, importtime: bool = False) -> tuple[float, object]:
+def _run_once(script: Path, cache: str, out: str, importtime: bool = False, env: dict | None = None
+              ) -> tuple[float, object]:
     code = RUN
     args = ["run", str(script), "--out", out]
     t0 = time.perf_counter()
@@ -38,7 +39,7 @@ def _run_once(script: Path, cache: str, out: str, importtime: bool = False) -> t
         p = subprocess.run([sys.executable, "-X", "importtime", "-c", code, *args], capture_output=True, text=True,
                            env=env, cwd=ROOT, timeout=600)
     else:
-        p = python_child(code, *args, env={"NUMBA_CACHE_DIR": cache})
+        p = python_child(code, *args, env={"NUMBA_CACHE_DIR": cache, **(env or {})})
     t = time.perf_counter() - t0
     if p.returncode != 0:
         raise RuntimeError(f"irt run failed ({p.returncode}): {p.stderr[-400:]}")
@@ -80,6 +81,9 @@ def run(quick: bool = False, repeat: int = 5, script: Path = SCRIPT, cold: bool 
     with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as out:
         if cold:
             r["cold_s"], _ = _run_once(script, cache, out)
+            # the same cold run with Numba's own compile passes (irtlang.kernels.numba_speedups off)
+            with tempfile.TemporaryDirectory() as cache0:
+                r["cold_plain_s"], _ = _run_once(script, cache0, out, env={"IRT_NUMBA_SPEEDUPS": "0"})
         else:
             _run_once(script, cache, out)
         # the same script without its PNG (SPOTS without a file name): what matplotlib's import and drawing cost
@@ -113,9 +117,12 @@ def report(r: dict) -> str:
              f"wall time of the process.  The bare interpreter starts in {r['python_s']:.2f} s and `import numba` "
              f"takes {r['import_numba_s']:.2f} s on this machine.", "",
              "| run | wall time |", "|---|---|",
-             f"| cold (empty NUMBA_CACHE_DIR: the kernels compile) | {cold} |",
-             f"| warm, best of {r['repeat']} | {r['warm_best_s']:.2f} s |",
-             f"| warm, median of {r['repeat']} | {r['warm_median_s']:.2f} s |"]
+             f"| cold (empty NUMBA_CACHE_DIR: the kernels compile) | {cold} |"]
+    if "cold_plain_s" in r:
+        lines.append(f"| cold, with Numba's own compile passes (IRT_NUMBA_SPEEDUPS=0) | {r['cold_plain_s']:.2f} s "
+                     f"({r['cold_plain_s'] / r['cold_s']:.2f}x the cold run above) |")
+    lines += [f"| warm, best of {r['repeat']} | {r['warm_best_s']:.2f} s |",
+              f"| warm, median of {r['repeat']} | {r['warm_median_s']:.2f} s |"]
     if "noplot_best_s" in r:
         lines.append(f"| warm, the same script without its spot-diagram PNG (no matplotlib), best / median | "
                      f"{r['noplot_best_s']:.2f} s / {r['noplot_median_s']:.2f} s |")
@@ -133,6 +140,8 @@ def report(r: dict) -> str:
 
 def readme_rows(r: dict) -> list:
     cold = f"cold {r['cold_s']:.1f} s, " if "cold_s" in r else ""
+    if "cold_plain_s" in r:
+        cold += f"(without irtlang.kernels.numba_speedups {r['cold_plain_s']:.1f} s), "
     return [("start-up, `irt run examples_scripts/paraboloid_focus.inr` (whole process)",
              f"{cold}warm {r['warm_best_s']:.2f} s (best of {r['repeat']})", f"warm <= {TARGET_WARM} s")]
 
