@@ -82,6 +82,8 @@ import math
 import numba
 import numpy as np
 
+from .layout import AP_ANNULUS, AP_DISK, AP_NONE, AP_RECT
+
 __all__ = [
     "EPS_SELF",
     "NEWTON_MAX_IT",
@@ -723,3 +725,17 @@ def self_hit_tmin(ox, oy, oz, dx, dy, dz, size):
     if dn == 0.0:
         return INF
     return EPS_SELF * max(size, abs(ox), abs(oy), abs(oz)) / dn
+
+
+@numba.njit(cache=True, fastmath=False, inline="always")
+def in_aperture(kind, a0, a1, x, y):
+    """A packed aperture (kind ``layout.AP_*``, parameters a0, a1) at local (x, y); an ELLIPSE otherwise."""
+    if kind == AP_NONE:
+        return True
+    if kind == AP_RECT:
+        return in_rect(x, y, a0, a1)
+    if kind == AP_DISK:
+        return in_disk(x, y, a0)
+    if kind == AP_ANNULUS:
+        return in_annulus(x, y, a0, a1)
+    return in_ellipse(x, y, a0, a1)

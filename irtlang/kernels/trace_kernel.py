@@ -31,8 +31,8 @@ import math
 import numba
 import numpy as np
 
-from .geometry import in_annulus, in_disk, in_ellipse, in_rect, two_prod
-from .layout import (AP_ANNULUS, AP_DISK, AP_NONE, AP_RECT, C_ABS, C_INC, C_REF, C_SCA, C_TRA, DIR_COLLIMATED,
+from .geometry import in_aperture, two_prod
+from .layout import (AP_NONE, C_ABS, C_INC, C_REF, C_SCA, C_TRA, DIR_COLLIMATED,
                      DIR_LAMBERT, EV_A, EV_R, EV_S, EV_T, FL_ESCAPED, FL_HALTED, FL_LOST,
                      FL_REFLECTED, FL_SCATTERED, FL_TRANSMITTED, IF_ABSORB, IF_FRESNEL, IF_METAL,
                      IF_POLARIZER, IF_REFLECT, IF_RETARDER, IF_SPLIT, PHASE_HG, PHASE_RAYLEIGH,
@@ -130,15 +130,7 @@ def _rot(f, si, j, x, y, z):
 def _aperture_ok(kind, f, j, x, y):
     if kind == AP_NONE:
         return True
-    a0 = f[j, SF_AP]
-    a1 = f[j, SF_AP + 1]
-    if kind == AP_RECT:
-        return in_rect(x, y, a0, a1)
-    if kind == AP_DISK:
-        return in_disk(x, y, a0)
-    if kind == AP_ANNULUS:
-        return in_annulus(x, y, a0, a1)
-    return in_ellipse(x, y, a0, a1)
+    return in_aperture(kind, f[j, SF_AP], f[j, SF_AP + 1], x, y)
 
 
 # ---------------------------------------------------------------------------------------------- intersection
@@ -597,6 +589,25 @@ def _push(stack, sp, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w0, ev, excl, 
         stack[sp, SWP + h] = hist[h]
 
 
+@numba.njit(cache=True, inline="always")
+def _pop(stack, sp, hist, H, stq, stu, stv, ex, ey, ez):
+    """Stack entry sp as _push wrote it: ph(3), pl(3), d(3), w, w0, ev, excl, nee, path, flags, jlast, opl, sx,
+    sy, q, u, v, e1(3); its history goes into hist.  An unpolarized trace keeps its (unused) q .. e1."""
+    if F_POLAR:
+        stq = stack[sp, 20]
+        stu = stack[sp, 21]
+        stv = stack[sp, 22]
+        ex = stack[sp, 23]
+        ey = stack[sp, 24]
+        ez = stack[sp, 25]
+    for h in range(H):
+        hist[h] = stack[sp, SWP + h]
+    return (stack[sp, 0], stack[sp, 1], stack[sp, 2], stack[sp, 3], stack[sp, 4], stack[sp, 5], stack[sp, 6],
+            stack[sp, 7], stack[sp, 8], stack[sp, 9], stack[sp, 10], int(stack[sp, 11]), int(stack[sp, 12]),
+            stack[sp, 13] > 0.0, int(stack[sp, 14]), int(stack[sp, 15]), int(stack[sp, 16]), stack[sp, 17],
+            stack[sp, 18], stack[sp, 19], stq, stu, stv, ex, ey, ez)
+
+
 # ---------------------------------------------------------------------------------------------- event helpers
 # Inlined into _trace_chunks.  Numba loses a parallel loop's writes to an array reached through a tuple, so a
 # helper may READ a layout structure (S, SC, MD, D) but writes only into arrays passed to it as such.
@@ -1033,35 +1044,8 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                     from_stack = True
                 else:
                     sp -= 1
-                    phx = stack[sp, 0]
-                    phy = stack[sp, 1]
-                    phz = stack[sp, 2]
-                    plx = stack[sp, 3]
-                    ply = stack[sp, 4]
-                    plz = stack[sp, 5]
-                    dx = stack[sp, 6]
-                    dy = stack[sp, 7]
-                    dz = stack[sp, 8]
-                    w = stack[sp, 9]
-                    w0 = stack[sp, 10]
-                    ev = int(stack[sp, 11])
-                    excl = int(stack[sp, 12])
-                    nee = stack[sp, 13] > 0.0
-                    path = int(stack[sp, 14])
-                    flags = int(stack[sp, 15])
-                    jlast = int(stack[sp, 16])
-                    opl = stack[sp, 17]
-                    sx0 = stack[sp, 18]
-                    sy0 = stack[sp, 19]
-                    if F_POLAR:
-                        stq = stack[sp, 20]
-                        stu = stack[sp, 21]
-                        stv = stack[sp, 22]
-                        ex = stack[sp, 23]
-                        ey = stack[sp, 24]
-                        ez = stack[sp, 25]
-                    for h in range(H):
-                        hist[h] = stack[sp, SWP + h]
+                    (phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w0, ev, excl, nee, path, flags, jlast, opl, sx0,
+                     sy0, stq, stu, stv, ex, ey, ez) = _pop(stack, sp, hist, H, stq, stu, stv, ex, ey, ez)
                 last = -1
                 hx = phx + plx
                 hy = phy + ply

@@ -27,7 +27,7 @@ import numpy as np
 import pytest
 
 from irtlang.kernels import layout
-from irtlang.kernels.geometry import conic_normal_plain, hit_conic_plain
+from irtlang.kernels.geometry import conic_normal_plain, hit_conic_plain, in_aperture
 from irtlang.plugins.surfaces import CODES, REGISTRY
 from irtlang.plugins.surfaces import biconic as B
 
@@ -205,7 +205,7 @@ def test_hits_lie_on_the_biconic_and_find_the_aimed_point():
             res = abs(p[2] - sag(p[0], p[1], *par)) / max(size, np.abs(p).max())
             nz = abs(unit([-g for g in sag_grad(p[0], p[1], *par)] + [1.0])[2]) if res > 0 else 1.0
             worst_dist = max(worst_dist, res * nz)
-            if far <= 10 * size:
+            if abs(t) * np.linalg.norm(d) <= 10 * size:     # this hit lies within 10 sizes of the origin
                 worst_near = max(worst_near, res)
     print(f"biconic: distance from the surface <= {worst_dist:.2e} size, |z - sag| <= {worst_near:.2e} size "
           f"from <= 10 sizes away; the aimed point found to {worst_aim:.2e}")
@@ -370,7 +370,7 @@ def kernel_pick(S, o, d, tmin, leaving=False):
     t1, t2, _ = B.hit(S.f, S.i, S, 0, *o, *d, tmin, leaving)
     apk, a0, a1 = S.i[0, layout.SI_APK], S.f[0, layout.SF_AP], S.f[0, layout.SF_AP + 1]
     for t in (t1, t2):
-        if tmin < t < INF and B._aperture_ok(apk, a0, a1, o[0] + t * d[0], o[1] + t * d[1]):
+        if tmin < t < INF and in_aperture(apk, a0, a1, o[0] + t * d[0], o[1] + t * d[1]):
             return t
     return INF
 

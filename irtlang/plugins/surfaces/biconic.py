@@ -50,8 +50,8 @@ import numpy as np
 
 from ...core.diagnostics import error
 from ...core.units import INV_LENGTH, LENGTH, NONE
-from ...kernels.geometry import disc, in_annulus, in_disk, in_ellipse, in_rect, normalize3, solve_quadratic
-from ...kernels.layout import AP_ANNULUS, AP_DISK, AP_NONE, AP_RECT, SF_AP, SF_PAR, SI_APK
+from ...kernels.geometry import disc, in_aperture, normalize3, solve_quadratic
+from ...kernels.layout import SF_AP, SF_PAR, SI_APK
 from ...lang.spec import Axis, Clause, Form, V
 from ...model.scene import Surface
 from ._aperture import CLAUSES, aperture_from, bounding_radius
@@ -213,38 +213,29 @@ def _root_in(a4, a3, a2, a1, a0, lo, hi, w, rtol):
         else:
             hi = 0.0
             ph = p0
-    if hi == np.inf:
-        step = max(w, abs(lo))
+    if hi == np.inf or lo == -np.inf:
+        # walk out from the finite end, doubling the step, until the sign of the open end is met
+        up = hi == np.inf
+        a = lo if up else hi
+        pa = pl if up else ph
+        s_open = shi if up else slo
+        step = max(w, abs(a))
         while True:
-            x = lo + step
+            x = a + step if up else a - step
             if not (abs(x) < _FAR):
                 return np.nan
             px, _ = _peval(a4, a3, a2, a1, a0, x)
             if px == 0.0:
                 return x
-            if _sgn(px) == shi:
-                hi = x
-                ph = px
+            if _sgn(px) == s_open:
                 break
-            lo = x
-            pl = px
+            a = x
+            pa = px
             step *= 2.0
-    elif lo == -np.inf:
-        step = max(w, abs(hi))
-        while True:
-            x = hi - step
-            if not (abs(x) < _FAR):
-                return np.nan
-            px, _ = _peval(a4, a3, a2, a1, a0, x)
-            if px == 0.0:
-                return x
-            if _sgn(px) == slo:
-                lo = x
-                pl = px
-                break
-            hi = x
-            ph = px
-            step *= 2.0
+        if up:
+            lo, pl, hi, ph = a, pa, x, px
+        else:
+            lo, pl, hi, ph = x, px, a, pa
     # safeguarded Newton (Numerical Recipes' rtsafe) from the secant point, oriented so that g = o P < 0 at lo
     # and > 0 at hi
     o = -slo
@@ -482,20 +473,6 @@ def biconic_roots(ox, oy, oz, dx, dy, dz, cx, cy, kx, ky, leaving, tlo):
 
 
 @numba.njit(cache=True, fastmath=False)
-def _aperture_ok(apk, a0, a1, x, y):
-    """The kernel's aperture test (trace_kernel._aperture_ok) on the packed kind and parameters."""
-    if apk == AP_NONE:
-        return True
-    if apk == AP_RECT:
-        return in_rect(x, y, a0, a1)
-    if apk == AP_DISK:
-        return in_disk(x, y, a0)
-    if apk == AP_ANNULUS:
-        return in_annulus(x, y, a0, a1)
-    return in_ellipse(x, y, a0, a1)
-
-
-@numba.njit(cache=True, fastmath=False)
 def _pick(r1, r2, r3, r4, tmin, apk, a0, a1, ox, oy, dx, dy):
     """The first two roots beyond tmin; when more than two lie beyond it, the first two inside the aperture."""
     t1 = np.inf
@@ -510,7 +487,7 @@ def _pick(r1, r2, r3, r4, tmin, apk, a0, a1, ox, oy, dx, dy):
         r = r1 if i == 0 else (r2 if i == 1 else (r3 if i == 2 else r4))
         if not (r > tmin and r < np.inf):
             continue
-        if m > 2 and not _aperture_ok(apk, a0, a1, ox + r * dx, oy + r * dy):
+        if m > 2 and not in_aperture(apk, a0, a1, ox + r * dx, oy + r * dy):
             continue
         if keep == 0:
             t1 = r
