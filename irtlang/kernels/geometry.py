@@ -106,6 +106,7 @@ __all__ = [
     "in_disk",
     "in_annulus",
     "in_ellipse",
+    "in_aperture",
     "to_local",
     "to_world",
     "dir_to_local",

@@ -1,7 +1,7 @@
-"""Faster versions of two of Numba's compile passes, for the trace kernel's first compile.
+"""Faster versions of three of Numba's compile passes, for the trace kernel's first compile.
 
 Measured on the telescope scene's kernel (2 cores, empty cache; docs/architecture.md, "Compile time"), a
-cold compile spends most of its time in Numba's own Python passes, not in LLVM, and two of them grow
+cold compile spends most of its time in Numba's own Python passes, not in LLVM, and three of them grow
 faster than the code they compile:
 
 * ``ir_utils.copy_propagate`` (run on every parallel loop's body and by ``simplify``) compares its fixed
@@ -16,10 +16,11 @@ faster than the code they compile:
   inlining: thousands) is copied once per block.  One memo per copy copies it once: the copy's blocks share
   one scope, as the original IR's blocks do.
 
-Both replacements compute the same thing as the originals (tests/unit/test_numba_speedups.py checks the
-first against Numba's own on real IR, and kernels compiled with both give bit-identical results), and they
-are installed only over the exact source they were checked against (a hash of each original function):
-another Numba version keeps its own passes, correct and slower.  ``IRT_NUMBA_SPEEDUPS=0`` leaves Numba
+The replacements compute the same thing as the originals (tests/unit/test_numba_speedups.py checks copy
+propagation and liveness against Numba's own on the kernel's IR, and a parallel loop of inlined helpers
+compiled with all three against plain Python; the kernels compile to bit-identical results), and they are
+installed only over the exact source they were checked against (a hash of each original function): another
+Numba version, or one installed without its sources, keeps its own passes, correct and slower.  ``IRT_NUMBA_SPEEDUPS=0`` leaves Numba
 untouched.  They change how long a compile takes, never what it produces.
 """
 from __future__ import annotations
@@ -39,7 +40,10 @@ _ORIGINAL: dict = {}
 
 
 def _hash(fn) -> str:
-    return hashlib.sha256(inspect.getsource(fn).encode()).hexdigest()[:16]
+    try:
+        return hashlib.sha256(inspect.getsource(fn).encode()).hexdigest()[:16]
+    except (OSError, TypeError):      # no source to check: leave Numba as it is
+        return ""
 
 
 def init_copy_propagate_data(blocks, entry, typemap):
@@ -182,7 +186,7 @@ def install() -> list:
     """Put the replacements in place (once; where the originals are the checked ones).  Returns their names."""
     if installed or os.environ.get("IRT_NUMBA_SPEEDUPS", "1") == "0":
         return installed
-    from numba.core import inline_closurecall, ir_utils
+    from numba.core import analysis, inline_closurecall, ir_utils
     from numba.parfors import parfor
 
     if (_hash(ir_utils.copy_propagate) == KNOWN["copy_propagate"]
@@ -194,8 +198,6 @@ def install() -> list:
         ir_utils.init_copy_propagate_data = init_copy_propagate_data
         parfor.copy_propagate = copy_propagate
         installed.append("copy_propagate")
-    from numba.core import analysis
-
     if _hash(analysis.compute_live_map) == KNOWN["compute_live_map"]:
         _ORIGINAL["compute_live_map"] = analysis.compute_live_map
         for mod in (analysis, ir_utils, parfor):
