@@ -25,7 +25,7 @@ from ..kernels.layout import (AP_ANNULUS, APERTURE_CODES,  # noqa: F401
                               IF_FRESNEL, IF_METAL, IF_POLARIZER, IF_REFLECT, IF_RETARDER, IF_SPLIT, N_ASPH, N_PAR,
                               SF_AP, SF_ASPH, SF_BS, SF_HOLE, SF_N, SF_PAR, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
                               SI_AXIS, SI_FAM, SI_FIDX, SI_KIND, SI_MESH, SI_N, SI_NASPH, SI_OBJ, SAMPLE_SPECTRAL,
-                              SAMPLE_STRATIFIED)
+                              SAMPLE_STRATIFIED, SPEC_GATE)
 from ..plugins.sources import EMITTER_CODES
 from ..plugins.surfaces import CODES as SURFACE_CODES, REGISTRY as SURFACES
 
@@ -121,7 +121,7 @@ class Packed:
     # scattering: an object's SCATTER specs sc_first[o] .. + sc_count[o], tried in order
     o_sc_first: np.ndarray
     o_sc_cnt: np.ndarray
-    sp_kind: np.ndarray             # 0 model, 1 class map, 2 fraction map
+    sp_kind: np.ndarray             # 0 model, 1 class map, 2 fraction map, 3 OPAQUE WHERE gate (first)
     sp_model: np.ndarray            # model index (kinds 0 and 2)
     sp_map: np.ndarray              # map index (kinds 1 and 2)
     sp_cls_off: np.ndarray          # class -> model table (kind 1)
@@ -315,6 +315,24 @@ def _load_map(mdef: M.MapDef) -> np.ndarray:
     return load_latlon(Path(mdef.path))
 
 
+def _load_map_checked(mdef: M.MapDef) -> np.ndarray:
+    """_load_map, with a default dataset this installation cannot build reported at the MAP line."""
+    from ..earth.data import DatasetUnavailable
+
+    try:
+        return _load_map(mdef)
+    except DatasetUnavailable as e:
+        raise error(mdef.span, f"MAP {mdef.name} LATLON DEFAULT {mdef.dataset}: {e}") from None
+
+
+def _gate_grid(scene: M.Scene, gate: tuple) -> np.ndarray:
+    """An OPAQUE WHERE gate as a LATLON map: 1.0 where lo <= value < hi, 0.0 elsewhere (NaN: clear)."""
+    _, key, lo, hi = gate
+    g = np.asarray(_load_map_checked(scene.maps[key]), np.float64)
+    with np.errstate(invalid="ignore"):
+        return ((g >= lo) & (g < hi)).astype(np.float64)
+
+
 def _dd_translate(R_parent, T_parent_hi, T_parent_lo, t_child):
     """(hi, lo) of T_parent + R_parent @ t_child, exact to double-double."""
     hi, lo = [], []
@@ -416,6 +434,14 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
         obj = scene.objects[k]
         o_sc_first[i] = len(specs)
         o_sc_cnt[i] = len(obj.scatter)
+        if obj.where is not None:
+            # OPAQUE WHERE: a gate spec first, over the map's [lo, hi) as a 0/1 map (kernel: SPEC_GATE)
+            wkey, lo, hi, _ = obj.where        # (TRACE checked that its models only reflect)
+            gate = ("gate", wkey, lo, hi)
+            if gate not in used_maps:
+                used_maps.append(gate)
+            specs.append((SPEC_GATE, -1, used_maps.index(gate), (), 1, -1))
+            o_sc_cnt[i] += 1
         for sc in obj.scatter:
             tgt = obj_index[sc.toward] if sc.toward is not None else -1
             if tgt >= 0:
@@ -425,12 +451,7 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
                 continue
             mdef = scene.maps[sc.map]
             if mdef.path is None:
-                from ..earth.data import DatasetUnavailable
-
-                try:
-                    dgrid = _load_map(mdef)
-                except DatasetUnavailable as e:
-                    raise error(mdef.span, f"MAP {mdef.name} LATLON DEFAULT {mdef.dataset}: {e}") from None
+                dgrid = _load_map_checked(mdef)
                 if np.issubdtype(dgrid.dtype, np.integer) and int(dgrid.max()) + 1 > len(sc.models):
                     raise error(sc.span, f"map {mdef.name} has {int(dgrid.max()) + 1} classes but MODELS names "
                                 f"{len(sc.models)}", "name one model per class index 0 .. n-1")
@@ -460,7 +481,8 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
         sp_cls_off[q], sp_cls_n[q] = len(cls), len(classes)
         cls.extend(classes)
     cls_models = np.asarray(cls or [0], np.int32)
-    grids = [_load_map(scene.maps[m]).astype(np.float64) for m in used_maps]
+    grids = [_gate_grid(scene, m) if isinstance(m, tuple) else _load_map(scene.maps[m]).astype(np.float64)
+             for m in used_maps]
     map_nlat = np.array([g.shape[0] for g in grids] or [1], np.int64)
     map_nlon = np.array([g.shape[1] for g in grids] or [1], np.int64)
     map_off = np.concatenate([[0], np.cumsum([g.size for g in grids])[:-1]]).astype(np.int64) if grids else np.zeros(1, np.int64)

@@ -51,8 +51,9 @@ APERTURE_CODES = {None: AP_NONE, "RECT": AP_RECT, "DISK": AP_DISK, "ANNULUS": AP
 IF_ABSORB, IF_REFLECT, IF_SPLIT, IF_FRESNEL, IF_POLARIZER, IF_RETARDER, IF_METAL = range(7)
 
 # ---------------------------------------------------------------------------------------------- scattering
-#: scatter-spec kinds (``Scatter.kind``): one model, a class map (class -> model), a fraction map
-SPEC_MODEL, SPEC_CLASS_MAP, SPEC_FRACTION_MAP = range(3)
+#: scatter-spec kinds (``Scatter.kind``): one model, a class map (class -> model), a fraction map; an OPAQUE
+#: WHERE gate (an object's first spec, its map 1.0 where the object is present: opaque there, clear elsewhere)
+SPEC_MODEL, SPEC_CLASS_MAP, SPEC_FRACTION_MAP, SPEC_GATE = range(4)
 #: volume phase functions (``Media.phase``)
 PHASE_NONE, PHASE_RAYLEIGH, PHASE_HG = range(3)
 

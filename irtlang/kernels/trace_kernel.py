@@ -37,7 +37,7 @@ from .layout import (AP_NONE, C_ABS, C_INC, C_REF, C_SCA, C_TRA, DIR_COLLIMATED,
                      FL_REFLECTED, FL_SCATTERED, FL_TRANSMITTED, IF_ABSORB, IF_FRESNEL, IF_METAL,
                      IF_POLARIZER, IF_REFLECT, IF_RETARDER, IF_SPLIT, PHASE_HG, PHASE_RAYLEIGH,
                      SAMPLE_SPECTRAL, SF_AP, SF_BS, SF_HOLE, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
-                     SI_AXIS, SI_FAM, SI_FIDX, SI_KIND, SI_OBJ, SPEC_CLASS_MAP, SPEC_FRACTION_MAP,
+                     SI_AXIS, SI_FAM, SI_FIDX, SI_KIND, SI_OBJ, SPEC_CLASS_MAP, SPEC_FRACTION_MAP, SPEC_GATE,
                      SPEC_MODEL)
 from .layout import Detectors, Media, Scatter, Sources, Surfaces
 from .optics import fresnel_unpolarized, refract
@@ -1181,9 +1181,23 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                                                                       ex, ey, ez, stq, stu, R, T, Ar, Br, At, Bt)
                     ev += 1
                     evkind = EV_A
+                    scf = o_sc_first[o]
+                    scn = o_sc_cnt[o]
+                    if F_MAPS and scn > 0 and sp_kind[scf] == SPEC_GATE:
+                        # OPAQUE WHERE: the object is present (opaque: its models, the rest absorbed) where its
+                        # gate map is 1, and clear air elsewhere (its TRANSMIT interface, no scattering)
+                        glat, glon = geodetic(lx, ly, lz)
+                        gm = sp_map[scf]
+                        scf += 1
+                        scn -= 1
+                        if map_value(map_data, map_off[gm], map_nlat[gm], map_nlon[gm], glat, glon) > 0.5:
+                            R = 0.0
+                            T = 0.0
+                        else:
+                            scn = 0
                     # which scatter model applies here: an object's SCATTER specs, tried in order
                     mk = 0
-                    sc, sc_n, sc_tgt = _scatter_spec(SC, o_sc_first[o], o_sc_cnt[o], lx, ly, lz, seed, i, ev, path)
+                    sc, sc_n, sc_tgt = _scatter_spec(SC, scf, scn, lx, ly, lz, seed, i, ev, path)
                     nvx = nwx if front else -nwx      # the normal on the incoming side
                     nvy = nwy if front else -nwy
                     nvz = nwz if front else -nwz
@@ -1194,16 +1208,16 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                     # random choice above still decides the path's continuation, which then sends none.  The
                     # same expectation, without the variance of the choice (a partly cloudy pixel: cloud or not)
                     ev_nee = False
-                    if F_MAPS and F_IMPORTANCE and not nee and o_sc_cnt[o] > 0:
-                        for qq in range(o_sc_cnt[o]):
-                            if sp_kind[o_sc_first[o] + qq] == SPEC_FRACTION_MAP:
+                    if F_MAPS and F_IMPORTANCE and not nee and scn > 0:
+                        for qq in range(scn):
+                            if sp_kind[scf + qq] == SPEC_FRACTION_MAP:
                                 ev_nee = True
                                 break
                     if F_MAPS and F_IMPORTANCE and ev_nee:
                         preach = 1.0
                         kc = 0
-                        for qq in range(o_sc_cnt[o]):
-                            spn = o_sc_first[o] + qq
+                        for qq in range(scn):
+                            spn = scf + qq
                             kd = sp_kind[spn]
                             pmix = preach
                             mq = -1

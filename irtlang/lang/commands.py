@@ -529,8 +529,11 @@ def _interface(it, b, st):
     kind = b.variants["kind"].lower()
     back = b.get("back", "AIR")
     front = b.get("front", back if kind in ("polarizer", "retarder") else "AIR")
-    _update(it, obj, interface=M.Interface(kind, b.get("coating"), back, front, b.span, b.get("angle", 0.0),
-                                           b.get("retardance", 0.0)))
+    itf = M.Interface(kind, b.get("coating"), back, front, b.span, b.get("angle", 0.0), b.get("retardance", 0.0))
+    if obj.where is not None and not _clear_where(itf):
+        raise error(b.span, f"object {obj.name} has OPAQUE WHERE: its INTERFACE must stay TRANSMIT with one medium "
+                    "on both sides (clear where it is absent)", "INTERFACE TRANSMIT m m")
+    _update(it, obj, interface=itf)
 
 
 @command("SCATTER", Form((Variants("how", {
@@ -553,6 +556,29 @@ def _scatter(it, b, st):
     if spec.toward is not None and spec.toward == obj.name.upper():
         raise error(b.span, f"object {obj.name} cannot scatter TOWARD itself")
     _update(it, obj, scatter=obj.scatter + (spec,))
+
+
+def _clear_where(itf) -> bool:
+    """Whether an interface lets an OPAQUE WHERE object be clear air where it is absent: TRANSMIT, one medium."""
+    return itf is not None and itf.kind == "transmit" and itf.coating is None and itf.back == itf.front
+
+
+@command("OPAQUE", Form((Choice("what", ("WHERE",)), Ref("map", "map")),
+                        (Clause("FROM", (V("lo"),), required=True, doc="lowest map value where it is opaque"),
+                         Clause("TO", (V("hi"),), required=True, doc="map value from which it is clear again"))),
+         "geometry", "the current object is there only where a map's value lies in [lo, hi): opaque there (its "
+                     "scatter models apply, the rest is absorbed), clear elsewhere (relief: a ground per height)")
+def _opaque(it, b, st):
+    obj = _current(it, b)
+    if not _clear_where(obj.interface):
+        raise error(b.span, f"OPAQUE WHERE needs object {obj.name} to be clear where it is absent: give it INTERFACE "
+                    "TRANSMIT with one medium on both sides first",
+                    "INTERFACE TRANSMIT m m, then OPAQUE WHERE ... FROM lo TO hi")
+    if not b["lo"] < b["hi"]:
+        raise error(b.span_of("hi"), f"OPAQUE WHERE ... FROM lo TO hi needs lo < hi, got {b['lo']:g} and {b['hi']:g}")
+    if obj.where is not None:
+        raise error(b.head_span, f"object {obj.name} already has an OPAQUE WHERE", "give an object one range of one map")
+    _update(it, obj, where=(b["map"], float(b["lo"]), float(b["hi"]), b.span))
 
 
 @command("SHIFT", Form((Variants("how", {"X": Form((V("d", LENGTH),)), "Y": Form((V("d", LENGTH),)),
@@ -886,14 +912,17 @@ def _check_scene(it, b) -> None:
                                         "give a class map one model per class, or scale the fractions to [0, 1]")
         # a transmitting model on an opaque object (SCATTER checks this only against an INTERFACE given
         # before it; here: INTERFACE after SCATTER, no INTERFACE (absorbing), and SCATTER MAP ... MODELS)
-        opaque = obj.interface is None or obj.interface.kind in ("reflect", "absorb")
+        opaque = obj.interface is None or obj.interface.kind in ("reflect", "absorb") or obj.where is not None
         for sc in obj.scatter if opaque else ():
             for mname in ((sc.model,) if sc.model is not None else sc.models):
                 model = s.models[mname]
                 if BSDFS[model.kind].transmits(model.params):
-                    kind = obj.interface.kind.upper() if obj.interface is not None else "ABSORB, the default"
+                    kind = ("INTERFACE " + obj.interface.kind.upper() if obj.where is None and obj.interface is not None
+                            else "OPAQUE WHERE, where it is present" if obj.where is not None
+                            else "INTERFACE ABSORB, the default")
                     raise error(sc.span, f"model {model.name} transmits, but object {obj.name} is opaque "
-                                f"(INTERFACE {kind})", "give the object INTERFACE TRANSMIT or a model that only reflects")
+                                f"({kind})", "give the object INTERFACE TRANSMIT or a model that only reflects"
+                                if obj.where is None else "an OPAQUE WHERE object takes models that only reflect")
         itf = obj.interface
         if itf is not None and itf.kind == "coating" and s.coatings[itf.coating].kind == "fresnel":
             pass

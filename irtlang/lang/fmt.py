@@ -35,7 +35,7 @@ from .spec import Form, Variants, match_keyword
 INDENT = "  "
 CONT_INDENT = "    "
 RESERVED = ("DO", "IF", "THEN", "ELSE", "END", "AND", "OR", "NOT")
-MODIFIERS = ("INTERFACE", "SCATTER", "SHIFT", "ROTATE", "DETECTOR")
+MODIFIERS = ("INTERFACE", "SCATTER", "OPAQUE", "SHIFT", "ROTATE", "DETECTOR")
 _NOSPAN = Span(None, 0, 0, 0, 0)
 
 

@@ -178,6 +178,9 @@ class SceneObject:
     detector: Detector | None = None
     group: str | None = None
     span: Span = NO_SPAN
+    # OPAQUE WHERE map FROM lo TO hi: (map key, lo, hi, span): the object exists only where the map's value at
+    # the hit lies in [lo, hi): opaque there (its scatter models apply, the rest is absorbed), clear elsewhere
+    where: tuple | None = None
 
 
 @dataclass(frozen=True)

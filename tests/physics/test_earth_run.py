@@ -162,6 +162,47 @@ def test_clear_sky_has_no_cloud_shells(tmp_path):
     assert names["none"] < names["eddington"]
 
 
+def test_relief_levels(tmp_path):
+    """The ground at its height (docs/earth.md, "Relief"): eight ground levels, each 5 m above an air layer's top
+    and in that layer's upper medium, present where ELEVATION rounds to that top; their ranges tile [200 m, inf)
+    without gap or overlap, and `relief=0` leaves only the sea-level ground.  The levels' choice is checked
+    against published altitudes of four places, each well inside its level's range: the Chang Tang plateau
+    (34 N 86 E, about 4.9 km), the Greenland ice sheet's summit (72.6 N 38.5 W, 3216 m), the Tanezrouft in the
+    Sahara (23 N 0 E, about 400 m; plain at 350-450 m) and the Amazon at Manaus (3.1 S 60 W, 92 m)."""
+    from irtlang.earth.data import load_dataset
+
+    text = "band = 'all'\nrelief = {}\nINCLUDE '{}'\nCALL earth_at 0\n"
+    scene = {}
+    for relief in (0, 1):
+        it = _interp(text.format(relief, EARTH.with_name("earth_scene.inr")), tmp_path)
+        scene[relief] = it.state.objects
+    assert not any(o.where for o in scene[0].values())
+    objs = scene[1]
+    levels = sorted((o.where[1], o) for o in objs.values() if o.where is not None)
+    assert len(levels) == 8
+    lo_hi = [(o.where[1], o.where[2]) for _, o in levels]
+    assert lo_hi[0][0] == 200.0 and all(a[1] == b[0] for a, b in zip(lo_hi, lo_hi[1:])) and lo_hi[-1][1] > 8848
+    for _, o in levels:
+        k = int(o.name.split("_")[1])
+        top = objs[f"AIR_{k}_TOP"]
+        assert o.surfaces[0].params["a"] - top.surfaces[0].params["a"] == pytest.approx(5.0, abs=1e-6)   # metres
+        assert o.interface.back == o.interface.front == top.interface.front
+        assert o.scatter and [s.models for s in o.scatter] == [s.models for s in objs["GROUND"].scatter]
+    elev = load_dataset("ELEVATION")
+    nlat, nlon = elev.shape
+
+    def level_at(lat, lon):
+        v = elev[int((90 - lat) / 180 * nlat), int((lon + 180) / 360 * nlon)]
+        hits = [o.name for _, o in levels if o.where[1] <= v < o.where[2]]
+        assert len(hits) <= 1
+        return hits[0] if hits else "ground"
+
+    assert level_at(34.0, 86.0) == "ground_8"          # 5 km: [4250, inf)
+    assert level_at(72.6, -38.5) == "ground_6"         # 3 km: [2500, 3250)
+    assert level_at(23.0, 0.0) == "ground_1"           # 0.4 km: [200, 600)
+    assert level_at(-3.1, -60.0) == "ground"           # sea level: below 200 m
+
+
 # ------------------------------------------------------------------------------------------- geometry
 @pytest.fixture(scope="module")
 def lambert_run(tmp_path_factory):

@@ -1,6 +1,7 @@
 """Bad scattering input gets a clear diagnostic from `irt check` (file:line:col, message, exit code 2), never a
 wrong run: maps of the wrong shape, class maps with classes no model covers, fraction maps outside [0, 1],
 transmitting models on opaque objects (whatever the order of INTERFACE and SCATTER, and through SCATTER MAP),
+OPAQUE WHERE on an object that is not clear where it is absent, or with an empty range,
 single-scattering albedos outside [0, 1], negative optical depths and extinctions.
 
 `irt check` runs in-process (irtlang.cli.main, the same code as the command) to keep the fast tier fast.
@@ -63,6 +64,28 @@ CASES = [
      "SURFACE\n  SPHERE 0 0 0 6371\nOBJECT earth\n  INTERFACE ABSORB\n  SCATTER MAP cover MODELS leaf white white\n"
      + EARTH_TRACE,
      "s.inr:10:3: error: model leaf transmits, but object earth is opaque (INTERFACE ABSORB)"),
+    ("opaque-where-on-an-absorbing-object",
+     HEAD + "MAP m LATLON 'frac.npy'\nSURFACE\n  SPHERE 0 0 0 6371\nOBJECT earth\n  INTERFACE ABSORB\n"
+     "  OPAQUE WHERE m FROM 0.5 TO 1\n",
+     "s.inr:8:3: error: OPAQUE WHERE needs object earth to be clear where it is absent: give it INTERFACE TRANSMIT "
+     "with one medium on both sides first"),
+    ("opaque-where-then-an-absorbing-interface",
+     HEAD + "MAP m LATLON 'frac.npy'\nSURFACE\n  SPHERE 0 0 0 6371\nOBJECT earth\n  INTERFACE TRANSMIT AIR AIR\n"
+     "  OPAQUE WHERE m FROM 0.5 TO 1\n  INTERFACE ABSORB\n",
+     "s.inr:9:3: error: object earth has OPAQUE WHERE: its INTERFACE must stay TRANSMIT with one medium on both "
+     "sides (clear where it is absent)"),
+    ("opaque-where-empty-range",
+     HEAD + "MAP m LATLON 'frac.npy'\nSURFACE\n  SPHERE 0 0 0 6371\nOBJECT earth\n  INTERFACE TRANSMIT AIR AIR\n"
+     "  OPAQUE WHERE m FROM 1 TO 0.5\n",
+     "s.inr:8:28: error: OPAQUE WHERE ... FROM lo TO hi needs lo < hi, got 1 and 0.5"),
+    ("opaque-where-twice",
+     HEAD + "MAP m LATLON 'frac.npy'\nSURFACE\n  SPHERE 0 0 0 6371\nOBJECT earth\n  INTERFACE TRANSMIT AIR AIR\n"
+     "  OPAQUE WHERE m FROM 0.5 TO 1\n  OPAQUE WHERE m FROM 0.5 TO 1\n",
+     "s.inr:9:3: error: object earth already has an OPAQUE WHERE"),
+    ("transmitting-on-opaque-where",
+     HEAD + "MODEL leaf LAMBERTIAN 0.5 TRANSMIT 0.2\nMAP m LATLON 'frac.npy'\nSURFACE\n  SPHERE 0 0 0 6371\n"
+     "OBJECT earth\n  INTERFACE TRANSMIT AIR AIR\n  OPAQUE WHERE m FROM 0.5 TO 1\n  SCATTER MODEL leaf\n" + EARTH_TRACE,
+     "s.inr:10:3: error: model leaf transmits, but object earth is opaque (OPAQUE WHERE, where it is present)"),
     ("albedo-above-1",
      HEAD + "MEDIUM layer INDEX 1 VOLUME EXTINCTION 0.1 ALBEDO 1.5 PHASE RAYLEIGH\n",
      "s.inr:3:51: error: MEDIUM INDEX ALBEDO: albedo must be in [0, 1], got 1.5"),
