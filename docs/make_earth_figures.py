@@ -2,8 +2,9 @@
 
     python docs/make_earth_figures.py irt-out/earth docs/img
 
-writes earth_contact_sheet.png (the day's RGB frames, labelled with their UTC time) and earth_frame_error.png (one
-frame's 550 nm image and its per-pixel relative standard error).
+writes earth_contact_sheet.png (the day's RGB frames, labelled with their UTC time), earth_frame_error.png (one
+frame's 550 nm image and its per-pixel relative standard error) and earth_relief_levels.png (the ground level
+each 0.5 deg cell of ELEVATION puts the ground on, by the rule of examples_scripts/earth_scene.inr).
 """
 from __future__ import annotations
 
@@ -60,8 +61,38 @@ def frame_error(run: Path, out: Path) -> Path:
     return p
 
 
+# the ground levels of earth_scene.inr (km) and their lower bounds in ELEVATION (m); below 200 m: sea level
+RELIEF_LEVELS = (0.0, 0.4, 0.8, 1.0, 1.5, 2.0, 3.0, 3.5, 5.0)
+RELIEF_FROM = (200, 600, 900, 1250, 1750, 2500, 3250, 4250)
+
+
+def relief_levels(out: Path) -> Path:
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+
+    from irtlang.earth.data import load_dataset
+
+    elev = load_dataset("ELEVATION")
+    lev = np.digitize(elev, RELIEF_FROM)           # 0: sea level, k: level k
+    fig, ax = plt.subplots(figsize=(10, 5))
+    cmap = ListedColormap(plt.get_cmap("terrain")(np.linspace(0.22, 0.95, len(RELIEF_LEVELS))))
+    a = ax.imshow(lev, extent=(-180, 180, -90, 90), cmap=cmap,
+                  norm=BoundaryNorm(np.arange(len(RELIEF_LEVELS) + 1) - 0.5, len(RELIEF_LEVELS)))
+    cb = fig.colorbar(a, ax=ax, ticks=range(len(RELIEF_LEVELS)), shrink=0.8)
+    cb.ax.set_yticklabels([f"{z:g} km" for z in RELIEF_LEVELS])
+    cb.set_label("ground level (ELEVATION rounded to a layer top)")
+    ax.set_xlabel("longitude (deg)")
+    ax.set_ylabel("latitude (deg)")
+    ax.set_title("examples_scripts/earth_scene.inr: the ground's level per 0.5 deg cell (relief = 1)", fontsize=10)
+    fig.tight_layout()
+    p = out / "earth_relief_levels.png"
+    fig.savefig(p, dpi=90)
+    plt.close(fig)
+    return p
+
+
 if __name__ == "__main__":
     run, out = Path(sys.argv[1]), Path(sys.argv[2])
     out.mkdir(parents=True, exist_ok=True)
     print(contact_sheet(run, out))
     print(frame_error(run, out))
+    print(relief_levels(out))
