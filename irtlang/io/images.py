@@ -190,13 +190,13 @@ def fits_bytes(img, stderr, extent, wavelengths_nm, length_unit, *, bands=None, 
 
 
 def _png(path: Path, img, extent, length_unit, label: str = "flux per pixel (W)") -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_agg import FigureCanvasAgg     # no pyplot: half a second less per run
+    from matplotlib.figure import Figure
 
     total = img.sum(axis=0)
-    fig, ax = plt.subplots(figsize=(5, 4.2), dpi=120)
+    fig = Figure(figsize=(5, 4.2), dpi=120)
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
     kw = {}
     if extent is not None:   # the detector's local x, y (or the WINDOW's axes), equal scales
         kw["extent"] = extent
@@ -210,4 +210,3 @@ def _png(path: Path, img, extent, length_unit, label: str = "flux per pixel (W)"
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png")
-    plt.close(fig)

@@ -13,7 +13,8 @@ writes the Dataset atomically as NetCDF4 into the run folder.  docs/python_api.m
 * ``<var>_stderr``: the Monte Carlo standard error, linked by ``ancillary_variables``;
 * spectra: ``spectrum_<object>`` on the ``wavelength`` axis; the ledger: ``ledger`` (object x column).
 
-xarray is imported only when a Dataset is built (``import irtlang`` stays cheap).
+xarray is imported only when a Dataset is built (``import irtlang`` stays cheap); ``write_results`` writes the
+same file with netCDF4 alone.
 """
 from __future__ import annotations
 
@@ -144,12 +145,20 @@ def _times(epochs):
         return None
 
 
-def build_dataset(col: ResultsCollector, info: dict, *, images: bool = True):
-    """The Dataset of a run (see the module docstring); info: the manifest's provenance (RunFolder.info).
-    images=False leaves the image variables out (their coordinates stay) and returns (Dataset, [their layout])
-    for ``write_results``, which writes them one 2-D slice at a time."""
+def build_dataset(col: ResultsCollector, info: dict):
+    """The xarray Dataset of a run (see the module docstring); info: the manifest's provenance (RunFolder.info)."""
     import xarray as xr
 
+    data_vars, coords, attrs, _ = _layout(col, info, images=True)
+    ds = xr.Dataset(data_vars, coords=coords)
+    ds.attrs.update(attrs)
+    return ds
+
+
+def _layout(col: ResultsCollector, info: dict, *, images: bool = True):
+    """(data_vars, coords, global attributes, pending images): the run's variables as {name: (dims, values,
+    attrs)}, without xarray.  images=False leaves the image variables out (their coordinates stay) and lists
+    their layout in `pending` for ``write_results``, which writes them one 2-D slice at a time."""
     pending = []
     names = _Names()
     names.used |= {"time", "frame", "wavelength", "band", "band_wavelength", "rays_per_frame", "ledger_row",
@@ -326,9 +335,7 @@ def build_dataset(col: ResultsCollector, info: dict, *, images: bool = True):
             coords.setdefault("time", (dim, times, _time_attrs()))
         data_vars["rays_per_frame"] = (dim, np.array([f["rays"] for f in col.frames]),
                                        {"units": "1", "long_name": "source rays traced in the frame"})
-    ds = xr.Dataset(data_vars, coords={k: v for k, v in coords.items()})
-    ds.attrs.update(global_attrs(info))
-    return ds if images else (ds, pending)
+    return data_vars, coords, global_attrs(info), pending
 
 
 def _time_attrs():
@@ -349,36 +356,87 @@ def global_attrs(info: dict) -> dict:
 
 
 def write_results(col: ResultsCollector, info: dict, path: Path) -> Path:
-    """Write the run's results as NetCDF4 (atomically): xarray writes the coordinates, spectra and ledgers,
-    then the images go in one 2-D slice at a time (zlib level 1, chunked per slice), so memory stays flat in
-    the number of frames.  Times are hours since the first frame."""
+    """Write the run's results as NetCDF4 (atomically), as xarray's ``to_netcdf`` of ``build_dataset`` would and
+    without importing xarray (which brings dask and distributed along: about a second of every run's start):
+    dimension and auxiliary coordinates (CF ``coordinates`` attributes), strings as variable-length strings,
+    times as hours since the first frame; the spectra and ledgers zlib level 4; the images one 2-D slice at a
+    time (zlib level 1, chunked per slice), so memory stays flat in the number of frames."""
     import netCDF4
 
-    ds, pending = build_dataset(col, info, images=False)
-    enc = {}
-    for name in list(ds.coords):
-        if np.issubdtype(ds[name].dtype, np.datetime64):
-            t0 = np.datetime_as_string(ds[name].values.min() if ds[name].ndim else ds[name].values, unit="s")
-            enc[name] = {"units": f"hours since {t0.replace('T', ' ')}", "calendar": "standard", "dtype": "f8"}
-    for name in ds.data_vars:
-        if ds[name].dtype.kind == "f":
-            enc[name] = {"zlib": True, "complevel": 4, "_FillValue": None}
+    data_vars, coords, attrs, pending = _layout(col, info, images=False)
+    dims: dict = {}
+    for d, v, _a in list(coords.values()) + list(data_vars.values()):
+        for name, n in zip((d,) if isinstance(d, str) else d, np.shape(v)):
+            dims[name] = n
+    for spec in pending:
+        dims.update(zip(spec["dims"], spec["shape"]))
+    index = {k for k, (d, _v, _a) in coords.items() if _dims(d) == (k,)}
+    aux = [k for k in coords if k not in index]
+
+    def aux_of(vdims):
+        return " ".join(k for k in aux if set(_dims(coords[k][0])) <= set(vdims))
+
     path = Path(path)
     with atomic_path(path) as tmp:
-        ds.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=enc)
-        with netCDF4.Dataset(tmp, "a") as nc:
+        with netCDF4.Dataset(tmp, "w", format="NETCDF4") as nc:
+            for name, n in dims.items():
+                nc.createDimension(name, n)
+            for name, (d, v, a) in coords.items():
+                _nc_var(nc, name, _dims(d), v, a, zlib=False)
+            for name, (d, v, a) in data_vars.items():
+                a = dict(a)
+                c = aux_of(_dims(d))
+                if c:
+                    a["coordinates"] = c
+                _nc_var(nc, name, _dims(d), v, a, zlib=True)
             for spec in pending:
                 chunks = (1,) * (len(spec["shape"]) - 2) + tuple(spec["shape"][-2:])
                 names = [spec["var"]] + ([spec["var"] + "_stderr"] if spec["err"] else [])
+                c = aux_of(spec["dims"])
                 v = {}
                 for k, n in enumerate(names):
                     v[n] = nc.createVariable(n, "f8", spec["dims"], zlib=True, complevel=1, chunksizes=chunks,
                                              fill_value=False)   # level 1: 2.5x faster than 4 on a frame
-                    v[n].setncatts(spec["attrs"] if k == 0 else spec["err_attrs"])
+                    v[n].setncatts({**(spec["attrs"] if k == 0 else spec["err_attrs"]),
+                                    **({"coordinates": c} if c else {})})
                 for idx, s in spec["cells"]:
                     a, e = s.arrays()
                     at = tuple(idx) + (slice(None), slice(None))
                     v[names[0]][at] = a
                     if spec["err"]:
                         v[names[1]][at] = e
+            used = {n for var in nc.variables.values() for n in getattr(var, "coordinates", "").split()}
+            left = [k for k in aux if k not in used]
+            nc.setncatts({**attrs, **({"coordinates": " ".join(left)} if left else {})})
     return path
+
+
+def _dims(d) -> tuple:
+    return (d,) if isinstance(d, str) else tuple(d)
+
+
+def _nc_var(nc, name: str, dims: tuple, values, attrs: dict, *, zlib: bool) -> None:
+    """One variable as xarray writes it: datetime64 as float hours since its first value (CF units, standard
+    calendar), object arrays as variable-length strings, numbers in their own type; no fill value."""
+    v = np.asarray(values)
+    attrs = dict(attrs)
+    if np.issubdtype(v.dtype, np.datetime64):
+        t0 = v.min() if v.ndim else v
+        attrs["units"] = "hours since " + np.datetime_as_string(t0, unit="s").replace("T", " ")
+        attrs["calendar"] = "standard"
+        v = (v - t0) / np.timedelta64(1, "h")
+    if v.dtype == object or v.dtype.kind == "U":
+        var = nc.createVariable(name, str, dims)
+        if v.ndim:
+            for i, x in enumerate(v.ravel()):
+                var[np.unravel_index(i, v.shape)] = str(x)
+        else:
+            var.assignValue(str(v))
+    else:
+        kw = {"zlib": True, "complevel": 4} if zlib and v.dtype.kind == "f" else {}
+        var = nc.createVariable(name, v.dtype, dims, fill_value=False, **kw)
+        if v.ndim:
+            var[...] = v
+        else:
+            var.assignValue(v)
+    var.setncatts(attrs)
