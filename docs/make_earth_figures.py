@@ -18,6 +18,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 
+def _save(fig, p: Path, dpi: int) -> Path:
+    fig.tight_layout()
+    fig.savefig(p, dpi=dpi)
+    plt.close(fig)
+    return p
+
+
 def contact_sheet(run: Path, out: Path, cols: int = 5) -> Path:
     frames = sorted((run / "rgb").glob("*.png"))
     rows = (len(frames) + cols - 1) // cols
@@ -29,11 +36,7 @@ def contact_sheet(run: Path, out: Path, cols: int = 5) -> Path:
         t = f.stem
         ax.set_title(f"{t[:4]}-{t[4:6]}-{t[6:8]} {t[9:11]}:{t[11:13]}", fontsize=8)
     fig.suptitle("examples_scripts/earth.inr: the day's RGB frames (650/550/450 nm, I/F, one stretch)", fontsize=10)
-    fig.tight_layout()
-    p = out / "earth_contact_sheet.png"
-    fig.savefig(p, dpi=110)
-    plt.close(fig)
-    return p
+    return _save(fig, out / "earth_contact_sheet.png", 110)
 
 
 def frame_error(run: Path, out: Path) -> Path:
@@ -54,11 +57,7 @@ def frame_error(run: Path, out: Path) -> Path:
     for x in ax:
         x.set_xlabel("pixel (window column)")
         x.set_ylabel("pixel (window row)")
-    fig.tight_layout()
-    p = out / "earth_frame_error.png"
-    fig.savefig(p, dpi=100)
-    plt.close(fig)
-    return p
+    return _save(fig, out / "earth_frame_error.png", 100)
 
 
 # the ground levels of earth_scene.inr (km) and their lower bounds in ELEVATION (m); below 200 m: sea level
@@ -83,11 +82,7 @@ def relief_levels(out: Path) -> Path:
     ax.set_xlabel("longitude (deg)")
     ax.set_ylabel("latitude (deg)")
     ax.set_title("examples_scripts/earth_scene.inr: the ground's level per 0.5 deg cell (relief = 1)", fontsize=10)
-    fig.tight_layout()
-    p = out / "earth_relief_levels.png"
-    fig.savefig(p, dpi=90)
-    plt.close(fig)
-    return p
+    return _save(fig, out / "earth_relief_levels.png", 90)
 
 
 if __name__ == "__main__":
