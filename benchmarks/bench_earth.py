@@ -60,25 +60,26 @@ def flagship(timeout: int = TIMEOUT_S) -> dict:
 
 
 def _pupil_flux(out: Path) -> dict:
-    """The disk-integrated flux through the pupil (all lines) and its standard error, from spectra/*.csv."""
+    """The forward trace's disk-integrated flux through the pupil (all lines) and its standard error, from
+    spectra_forward/*.csv (the first frame's)."""
     import csv
     import math
 
-    f = next((out / "spectra").glob("*.csv"))
+    f = next((out / "spectra_forward").glob("*.csv"))
     rows = list(csv.DictReader(f.open()))
     flux = sum(float(r["flux_W"]) for r in rows)
     se = math.sqrt(sum(float(r["stderr_W"]) ** 2 for r in rows))
     return {"flux_W": flux, "stderr_W": se}
 
 
-def _line_errors(out: Path) -> dict:
-    """Per-line relative standard errors of the disk spectrum through the pupil (spectra/*.csv): the median over
-    400-1000 nm and over every line with flux."""
+def _line_errors(out: Path, folder: str = "spectra") -> dict:
+    """Per-line relative standard errors of the disk spectrum through the pupil (spectra/*.csv: the pupil camera's;
+    spectra_forward/*.csv: the forward trace's): the median over 400-1000 nm and over every line with flux."""
     import csv
 
     import numpy as np
 
-    f = next((out / "spectra").glob("*.csv"))
+    f = next((out / folder).glob("*.csv"))
     rows = list(csv.DictReader(f.open()))
     lam = np.array([float(r["wavelength_nm"]) for r in rows])
     flux = np.array([float(r["flux_W"]) for r in rows])
@@ -89,21 +90,30 @@ def _line_errors(out: Path) -> dict:
     return {"median_rel_err_400_1000": float(np.nanmedian(rel[vis])), "median_rel_err_all": float(np.nanmedian(rel[ok]))}
 
 
-LINE_RAYS = (800, 3200, 12800)     # Sun rays per line: the disk spectrum's error per line against time (#16)
-LINE_SETTINGS = ("hours=1", "save_rays=0", "window=16", "spectral_samples=1")   # the camera frame made negligible
+LINE_RAYS = (800, 3200)            # Sun rays per line (forward): the disk spectrum's error per line against time
+LINE_DIRECTIONS = (8, 16, 32)      # the pupil camera's DIRECTIONS m: 2 m^2 rays per line (#16, item 4)
+LINE_SETTINGS = ("hours=1", "save_rays=0", "window=16", "spectral_samples=1")   # the image trace made negligible
 
 
-def line_error_against_time(rays=LINE_RAYS) -> list:
-    """One frame's forward trace at each Sun-ray count: wall time and the median per-line relative standard error
-    of the disk spectrum (issue #16, item 4: target 1 % per line, the whole day in 10 min)."""
+def line_error_against_time(rays=LINE_RAYS, directions=LINE_DIRECTIONS) -> list:
+    """One frame at each setting of each estimator of the disk spectrum: wall time and the median per-line
+    relative standard error (issue #16, item 4: target 1 % per line, the whole day in 10 min).  The forward trace
+    (Sun rays per line; its spectrum in spectra_forward/, with the pupil camera at its smallest) and the pupil
+    camera (DIRECTIONS m; spectra/, with the forward trace at 10 Sun rays per line).  The time includes the
+    frame's other traces, the same in every run of an estimator: compare differences of time."""
     out = []
-    earth_frame(settings=LINE_SETTINGS + (f"sun_rays={rays[0]}",))     # untimed: the kernels of these settings
-    for n in rays:
-        r = earth_frame(settings=LINE_SETTINGS + (f"sun_rays={n}",), keep=_line_errors)
-        if r["rc"] != 0:
-            out.append({"rays": n, "rc": r["rc"], "tail": r["tail"]})
-            continue
-        out.append({"rays": n, "s": r["s"], **{k: r[k] for k in ("median_rel_err_400_1000", "median_rel_err_all")}})
+    low_cam, low_fwd = f"pupil_directions={directions[0]}", "sun_rays=10"
+    earth_frame(settings=LINE_SETTINGS + (f"sun_rays={rays[0]}", low_cam))    # untimed: these settings' kernels
+    for est, values in (("forward", rays), ("pupil camera", directions)):
+        for n in values:
+            sets = (f"sun_rays={n}", low_cam) if est == "forward" else (low_fwd, f"pupil_directions={n}")
+            folder = "spectra_forward" if est == "forward" else "spectra"
+            r = earth_frame(settings=LINE_SETTINGS + sets, keep=lambda o, f=folder: _line_errors(o, f))
+            row = {"estimator": est, "setting": sets[0] if est == "forward" else sets[1]}
+            if r["rc"] != 0:
+                out.append({**row, "rc": r["rc"], "tail": r["tail"]})
+                continue
+            out.append({**row, "s": r["s"], **{k: r[k] for k in ("median_rel_err_400_1000", "median_rel_err_all")}})
     return out
 
 
@@ -210,8 +220,8 @@ def report(r: dict) -> str:
     if d:
         ok = d["rc"] == 0
         fail = "" if ok else f" (failed, exit {d['rc']})"
-        lines += ["The flagship run, `irt run examples_scripts/earth.inr` with its defaults (25 hourly frames, 800 Sun "
-                  "rays per line), one process, warm Numba cache:", "",
+        lines += ["The flagship run, `irt run examples_scripts/earth.inr` with its defaults (25 hourly frames), one "
+                  "process, warm Numba cache:", "",
                   "| wall time | peak RSS | files written | target |", "|---|---|---|---|",
                   f"| {d['s'] / 60:.1f} min{fail} | "
                   f"{d['rss_mb']:,.0f} MB | {d['files']} | <= 10 min: "
@@ -220,8 +230,8 @@ def report(r: dict) -> str:
     lines += [f"One frame, `irt run examples_scripts/earth.inr --set {' --set '.join(r['settings'])}`: {r['s']:.1f} s, "
               f"{status}.", "", "```", r["tail"], "```", ""]
     if r.get("series"):
-        lines += ["Time against radiometric error (one frame, the disk-integrated flux through the pupil over all 295 "
-                  "lines; wall time of the whole `irt run`, start-up and packing included):", "",
+        lines += ["Time against radiometric error of the forward trace (one frame, the disk-integrated flux through the "
+                  "pupil over all 295 lines; wall time of the whole `irt run`, start-up and packing included):", "",
                   "| Sun rays per line | wall s | relative standard error | figure of merit 1/(err^2 t) |", "|---|---|---|---|"]
         for x in r["series"]:
             if "rel_err" in x:
@@ -234,13 +244,17 @@ def report(r: dict) -> str:
     ln = [x for x in r.get("lines", []) if "median_rel_err_400_1000" in x]
     if ln:
         lines += ["The disk spectrum's error per line (issue #16, item 4: 1 % per line for the whole day in 10 min): one "
-                  "frame's forward trace (`--set " + " --set ".join(LINE_SETTINGS) + "`: the camera frame made "
-                  "negligible), median relative standard error per line:", "",
-                  "| Sun rays per line | wall s | 400-1000 nm | all lines | rays per line for 1 % (400-1000 nm) |",
-                  "|---|---|---|---|---|"]
+                  "frame (`--set " + " --set ".join(LINE_SETTINGS) + "`: the image trace made negligible), the "
+                  "forward trace (Sun rays per line) and the pupil camera (`DIRECTIONS m`: 2 m^2 rays per line), "
+                  "median relative standard error per line; the wall time is the whole run's (compare differences):",
+                  "",
+                  "| estimator | setting | wall s | 400-1000 nm | all lines | rays per line for 1 % (400-1000 nm) |",
+                  "|---|---|---|---|---|---|"]
         for x in ln:
-            need = x["rays"] * (x["median_rel_err_400_1000"] / 0.01) ** 2
-            lines.append(f"| {x['rays']} | {x['s']:.1f} | {x['median_rel_err_400_1000']:.2%} | "
+            k = int(x["setting"].split("=")[1])
+            n = k if x["estimator"] == "forward" else 2 * k * k
+            need = n * (x["median_rel_err_400_1000"] / 0.01) ** 2
+            lines.append(f"| {x['estimator']} | `{x['setting']}` | {x['s']:.1f} | {x['median_rel_err_400_1000']:.2%} | "
                          f"{x['median_rel_err_all']:.2%} | {need:,.0f} |")
         lines.append("")
     im = r.get("images")

@@ -1,10 +1,12 @@
 """The figures of docs/earth.md from a run folder of examples_scripts/earth.inr.
 
-    python docs/make_earth_figures.py irt-out/earth docs/img
+    python docs/make_earth_figures.py irt-out/earth docs/img [correlated_run]
 
 writes earth_contact_sheet.png (the day's RGB frames, labelled with their UTC time), earth_frame_error.png (one
-frame's 550 nm image and its per-pixel relative standard error) and earth_relief_levels.png (the ground level
-each 0.5 deg cell of ELEVATION puts the ground on, by the rule of examples_scripts/earth_scene.inr).
+frame's 550 nm image and its per-pixel relative standard error), earth_relief_levels.png (the ground level
+each 0.5 deg cell of ELEVATION puts the ground on, by the rule of examples_scripts/earth_scene.inr) and
+earth_pupil_spectra.png (the first frame's disk spectrum from the pupil's camera-side trace against the forward
+trace's, and with a run of `--set pupil_correlated=1` its correlated-lines spectrum).
 """
 from __future__ import annotations
 
@@ -85,9 +87,52 @@ def relief_levels(out: Path) -> Path:
     return _save(fig, out / "earth_relief_levels.png", 90)
 
 
+def _first_spectrum(folder: Path) -> np.ndarray:
+    return np.loadtxt(sorted(folder.glob("*.csv"))[0], delimiter=",", skiprows=1)
+
+
+def pupil_spectra(run: Path, out: Path, correlated: Path | None = None) -> Path:
+    cam = _first_spectrum(run / "spectra")
+    fwd = _first_spectrum(run / "spectra_forward")
+    rows = 3 if correlated is not None else 2
+    fig, axes = plt.subplots(rows, 1, figsize=(10, 3.1 * rows), sharex=True)
+    ax = axes[0]
+    for s, name, c in ((fwd, "forward trace, 800 Sun rays per line", "tab:gray"),
+                       (cam, "pupil camera, DIRECTIONS 16 (512 rays per line)", "tab:blue")):
+        ax.fill_between(s[:, 0], (s[:, 1] - s[:, 2]) * 1e9, (s[:, 1] + s[:, 2]) * 1e9, color=c, alpha=0.3, lw=0)
+        ax.plot(s[:, 0], s[:, 1] * 1e9, color=c, lw=0.8, label=f"{name}: median {np.median(s[s[:, 1] > 0, 2] / s[s[:, 1] > 0, 1]):.1%} per line")
+    ax.set_ylabel("flux through the pupil (nW)")
+    ax.legend(fontsize=8)
+    ax.set_title("examples_scripts/earth.inr, first frame: the disk spectrum two ways (+-1 standard error)", fontsize=10)
+    ax = axes[1]
+    pull = (cam[:, 1] - fwd[:, 1]) / np.hypot(cam[:, 2], fwd[:, 2])
+    ok = np.isfinite(pull) & (np.hypot(cam[:, 2], fwd[:, 2]) > 0)
+    ax.plot(cam[ok, 0], pull[ok], ".", ms=3, color="k")
+    ax.axhline(0, color="k", lw=0.5)
+    for k in (-2, 2):
+        ax.axhline(k, color="tab:red", lw=0.5, ls="--")
+    ax.set_ylabel("(camera - forward) / sigma")
+    ax.set_title(f"difference per line in standard errors: chi-square per line {np.mean(pull[ok] ** 2):.2f} over "
+                 f"{ok.sum()} lines", fontsize=9)
+    if correlated is not None:
+        cor = _first_spectrum(correlated / "spectra")
+        ax = axes[2]
+        ax.fill_between(cor[:, 0], (cor[:, 1] - cor[:, 2]) * 1e9, (cor[:, 1] + cor[:, 2]) * 1e9, color="tab:green",
+                        alpha=0.3, lw=0)
+        ax.plot(cor[:, 0], cor[:, 1] * 1e9, color="tab:green", lw=0.8,
+                label="pupil camera, DIRECTIONS 16 CORRELATED: each line's level +-1 standard error as before; "
+                      "the lines move together")
+        ax.set_ylabel("flux through the pupil (nW)")
+        ax.legend(fontsize=8)
+    axes[-1].set_xlabel("wavelength (nm)")
+    return _save(fig, out / "earth_pupil_spectra.png", 90)
+
+
 if __name__ == "__main__":
     run, out = Path(sys.argv[1]), Path(sys.argv[2])
     out.mkdir(parents=True, exist_ok=True)
-    print(contact_sheet(run, out))
-    print(frame_error(run, out))
-    print(relief_levels(out))
+    if (run / "rgb").is_dir() and len(list((run / "rgb").glob("*.png"))) > 1:
+        print(contact_sheet(run, out))
+        print(frame_error(run, out))
+        print(relief_levels(out))
+    print(pupil_spectra(run, out, Path(sys.argv[3]) if len(sys.argv) > 3 else None))

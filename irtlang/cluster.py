@@ -164,6 +164,7 @@ def trace_unit(pk, key: str, opts: tuple, first: int, n: int, version: str | Non
     if used < t.dep_idx.shape[1]:
         t.dep_idx = np.ascontiguousarray(t.dep_idx[:, :used])
         t.dep_w = np.ascontiguousarray(t.dep_w[:, :used])
+        t.dep_d = np.ascontiguousarray(t.dep_d[:, :used])
     return t
 
 

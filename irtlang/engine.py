@@ -28,6 +28,7 @@ from .io.manifest import RunFolder
 from .core.diagnostics import MissingCapability, RuntimeFailure, Span  # noqa: F401  (re-exported)
 from .core.units import Quantity, UNITS, LENGTH, POWER
 from .model import scene as M
+from .core.stats import result_standard_error, total_standard_error
 from .tracer import standard_error
 
 
@@ -237,7 +238,9 @@ class Engine:
                 raise MissingCapability(e.span, e.what, e.capability) from None
             img, img2 = res.images.pop(csc.objects[info["light"]].name)
             n_p = info["rays_per_pixel_line"] * info["samples"]      # rays started in each pixel
-            if n_p > 1:
+            if info["paired"]:
+                var = img2      # the sum over stratified pairs of (a - b)^2: the variance of the pixel's sum
+            elif n_p > 1:
                 var = np.maximum(img2 - img * img / n_p, 0.0) * (n_p / (n_p - 1))
             else:
                 var = img2
@@ -267,6 +270,8 @@ class Engine:
         self._camera_sun_variables(csc, res, info, interp, step)
         res.packed = dataclasses.replace(res.packed, detector_names=[info["camera"]])
         res.camera = info
+        res.paired = info["paired"]
+        res.correlated = info["correlated"]
         self.result = res
         self.scene = csc
         self.rays_traced += res.n_traced
@@ -570,19 +575,25 @@ class Engine:
         o = names.index(key)
         if step.params.get("stokes"):
             return self._spectrum_stokes(step, o, interp)
+        cam = getattr(res, "camera", None)
+        shown_name = res.packed.object_names[o]
+        if cam is not None and self.scene.objects[key].name == cam["camera"]:
+            # after TRACE CAMERA: what the camera's window receives per line, the flux its rays brought back from
+            # the light (the light's ledger row: every camera ray is an independent sample, or a stratified pair)
+            o = names.index(next(k for k in names if self.scene.objects[k].name == cam["light"]))
         flux = res.ledger[o, 0]
-        se = standard_error(flux, res.ledger_sq[o], res.n_traced)
+        se = result_standard_error(res, flux, res.ledger_sq[o])
         lines = ["wavelength_nm,flux_W,stderr_W"] + [f"{lam:.6g},{repr(float(f))},{repr(float(e))}"
                                                      for lam, f, e in zip(res.packed.lines_nm, flux, se)]
         shown = lines[:1] + lines[1:8] + (["..."] if len(lines) > 9 else []) + (lines[-1:] if len(lines) > 8 else [])
-        self.out(f"SPECTRUM OF {res.packed.object_names[o]}:\n  " + "\n  ".join(shown))
+        self.out(f"SPECTRUM OF {shown_name}:\n  " + "\n  ".join(shown))
         if self.collector is not None:
-            self.collector.add_spectrum(res.packed.object_names[o], res.packed.lines_nm, flux, se,
+            self.collector.add_spectrum(shown_name, res.packed.lines_nm, flux, se,
                                         step.params["file"] or "")
         tot = float(flux.sum())
         interp.assign("SPECTRUM_FLUX", Quantity(tot, POWER), step.span)
-        interp.assign("SPECTRUM_FLUX_SE", Quantity(float(standard_error(tot, res.ledger_sq[o].sum(), res.n_traced)),
-                                                   POWER), step.span)
+        interp.assign("SPECTRUM_FLUX_SE", Quantity(total_standard_error(res, flux, res.ledger_sq[o]), POWER),
+                      step.span)
         if step.params["file"]:
             self._write_text(step.params["file"], "\n".join(lines) + "\n", "spectrum")
 
@@ -1024,5 +1035,5 @@ def _pred_objects(pred) -> list:
 def _se_rows(res):
     """Standard error of each ledger row's incident flux (objects only; 0 for the other rows)."""
     nobj = len(res.packed.object_names)
-    return [float(standard_error(res.ledger[i, 0].sum(), res.ledger_sq[i].sum(), res.n_traced)) if i < nobj else 0.0
+    return [total_standard_error(res, res.ledger[i, 0], res.ledger_sq[i]) if i < nobj else 0.0
             for i in range(res.packed.n_rows)]

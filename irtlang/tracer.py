@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .compile.pack import Packed, pack
-from .core.stats import standard_error  # noqa: F401  (re-exported: irtlang.tracer.standard_error)
+from .core.stats import standard_error, total_standard_error  # noqa: F401  (re-exported: irtlang.tracer.standard_error)
 from .compile.specialize import kernel_module
 from .kernels.layout import Detectors, Media, Objects, Records, Scatter, Settings, Sources, Surfaces, Tallies
 
@@ -32,6 +32,8 @@ class TraceResult:
     interrupted: bool = False
     passes: int = 1
     stokes: dict | None = None  # POLARIZATION: detector name -> (sum (4, planes, ny, nx) of I, Q, U, V, sum2)
+    paired: bool = False        # a camera trace with DIRECTIONS: the sums of squares are stratified pairs' (a - b)^2
+    correlated: bool = False    # a CORRELATED camera trace: its lines share random numbers (total_standard_error)
 
     @property
     def rows(self) -> list:
@@ -40,8 +42,7 @@ class TraceResult:
     def flux_on(self, obj_index: int) -> tuple[float, float]:
         """Total incident flux on an object and its Monte Carlo standard error."""
         s1 = float(self.ledger[obj_index, 0].sum())
-        s2 = float(self.ledger_sq[obj_index].sum())
-        return s1, standard_error(s1, s2, self.n_traced)
+        return s1, total_standard_error(self, self.ledger[obj_index, 0], self.ledger_sq[obj_index])
 
 
 
@@ -108,6 +109,7 @@ class BatchTally:
     inc_sq: np.ndarray
     dep_idx: np.ndarray
     dep_w: np.ndarray
+    dep_d: np.ndarray
     dep_n: np.ndarray
     records: dict | None
 
@@ -178,10 +180,10 @@ class TraceContext:
             # the kernel writes every deposit entry before it reads it: no zeroing needed
             buf = self._dep_buf if reuse else None
             if buf is None or buf[0].shape[0] < nch or buf[0].shape[1] != self.cap:
-                buf = (np.empty((nch, self.cap), np.int64), np.empty((nch, self.cap)))
+                buf = (np.empty((nch, self.cap), np.int64), np.empty((nch, self.cap)), np.empty((nch, self.cap)))
                 if reuse:
                     self._dep_buf = buf
-            dep_idx, dep_w = buf[0][:nch], buf[1][:nch]
+            dep_idx, dep_w, dep_d = buf[0][:nch], buf[1][:nch], buf[2][:nch]
             dep_n = np.zeros(nch, np.int64)
             rc = self.rcap
             rec = dict(position=np.zeros((nch, rc, 6)), direction=np.zeros((nch, rc, 3)), flux=np.zeros((nch, rc)),
@@ -194,7 +196,7 @@ class TraceContext:
                 Settings(int(first), int(n), int(self.total), int(self.seed), int(self.level), float(self.halt),
                          float(pk.nee_cut), int(pk.r_importance)),
                 self.surfaces, self.objects, self.scatter, self.media, self.detectors, self.sources,
-                Tallies(led, inc_sq, dep_idx, dep_w, dep_n),
+                Tallies(led, inc_sq, dep_idx, dep_w, dep_d, dep_n),
                 Records(rec["position"], rec["direction"], rec["flux"], rec["line"], rec["source"], rec["object"],
                         rec["events"], rec["flags"], rec["history"], rec["opl"], rec["start"], rec_n))
             ok = True
@@ -212,7 +214,7 @@ class TraceContext:
             # the kernel writes positions as double-double (hi, lo): "position" stays the plain double,
             # "position_lo" keeps the rest, so points on an instrument placed 0.18 AU away stay exact
             recs["position"], recs["position_lo"] = recs["position"][:, :3].copy(), recs["position"][:, 3:].copy()
-        return BatchTally(first, n, led, inc_sq, dep_idx, dep_w, dep_n, recs)
+        return BatchTally(first, n, led, inc_sq, dep_idx, dep_w, dep_d, dep_n, recs)
 
 
 class Accumulator:
@@ -229,7 +231,7 @@ class Accumulator:
 
     def add(self, t: BatchTally) -> None:
         c = self.ctx
-        c.mod.reduce_batch(t.led, t.inc_sq, t.dep_idx, t.dep_w, t.dep_n, self.ledger, self.ledger_sq,
+        c.mod.reduce_batch(t.led, t.inc_sq, t.dep_idx, t.dep_w, t.dep_d, t.dep_n, self.ledger, self.ledger_sq,
                            self.img, self.img_sq, c.d_off, c.d_npix, c.i_off, c.d_nb, c.d_fm, c.d_fm_off)
         if t.records is not None:
             self.rec_parts.append(t.records)
@@ -273,7 +275,7 @@ def default_batch(ctx: TraceContext, runner=None) -> int:
     cluster's units and when per-ray records are kept."""
     if runner is not None or ctx.records:
         return BATCH_UNIT
-    per_chunk = 8 * (ctx.rows * 6 * ctx.L) + 16 * ctx.cap
+    per_chunk = 8 * (ctx.rows * 6 * ctx.L) + 24 * ctx.cap
     return max(64, min(256, BATCH_TALLY_BYTES // per_chunk)) * ctx.mod.CHUNK
 
 

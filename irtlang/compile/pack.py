@@ -30,7 +30,7 @@ from ..plugins.sources import EMITTER_CODES
 from ..plugins.surfaces import CODES as SURFACE_CODES, REGISTRY as SURFACES
 
 SK_PLANE, SK_CONIC, SK_SPHERE, SK_ELLIPSOID = (SURFACE_CODES[k] for k in ("PLANE", "CONIC", "SPHERE", "ELLIPSOID"))
-from ..kernels.layout import N_TERMINAL_ROWS  # noqa: E402  EMITTED, ESCAPED, HALTED, LOST: the last rows
+from ..kernels.layout import N_SRC_PAR, N_TERMINAL_ROWS, SP_CORRELATED, SP_DIRECTIONS, SP_ELLIPSE  # noqa: E402  EMITTED, ESCAPED, HALTED, LOST: the last rows
 
 
 class MissingFeature(Exception):
@@ -147,7 +147,7 @@ class Packed:
     # sources
     src_kind: np.ndarray
     src_dir: np.ndarray
-    src_par: np.ndarray             # (S, 12)
+    src_par: np.ndarray             # (S, N_SRC_PAR)
     src_R: np.ndarray               # (S, 9)
     src_Th: np.ndarray
     src_Tl: np.ndarray
@@ -675,7 +675,7 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
 
     L = len(lines)
     S = len(scene.sources)
-    out = dict(src_kind=np.zeros(S, np.int32), src_dir=np.zeros(S, np.int32), src_par=np.zeros((S, 12)),
+    out = dict(src_kind=np.zeros(S, np.int32), src_dir=np.zeros(S, np.int32), src_par=np.zeros((S, N_SRC_PAR)),
                src_R=np.zeros((S, 9)), src_Th=np.zeros((S, 3)), src_Tl=np.zeros((S, 3)), src_n=np.zeros(S, np.int64),
                src_off=np.zeros(S, np.int64), src_w=np.zeros((S, L)), src_random=np.zeros(S, np.int32),
                src_toward=np.full(S, -1, np.int32))
@@ -701,12 +701,19 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
             par[4:6] = p["nx"] * p["sub"], p["ny"] * p["sub"]
             par[8] = p["side"]
             out["src_toward"][i] = obj_index[p["aim"]]
+            # DIRECTIONS m: each start point sends 2 m^2 rays, a pair in each of m x m strata of the aim cone
+            m = int(p.get("directions") or 0)
+            par[SP_DIRECTIONS] = m
+            par[SP_ELLIPSE] = 1.0 if p.get("ellipse") else 0.0
+            par[SP_CORRELATED] = 1.0 if p.get("correlated") else 0.0
+            per = 2 * m * m if m else 1
             # the light's radiance per line, L = P / (4 pi R^2) / pi, times pi A_pix / s^2 per camera ray
+            # (and / 2 m^2 with DIRECTIONS)
             P = _line_power(scene, p["light_flux"], SUN_AREA_1AU, widths)
-            wl = P * p["pixel_area"] / (4 * math.pi * p["light_radius"] ** 2 * p["sub"] ** 2)
+            wl = P * p["pixel_area"] / (4 * math.pi * p["light_radius"] ** 2 * p["sub"] ** 2 * per)
             resp = np.asarray(p["response"], float)        # (L, B): each image's weight per line
             wl[~(resp.max(axis=1) > 0.0)] = 0.0
-            emitted += wl * p["nx"] * p["ny"] * p["sub"] ** 2      # the expected emission of every scheme below
+            emitted += wl * p["nx"] * p["ny"] * p["sub"] ** 2 * per    # the expected emission of every scheme below
             if p["spectral"] > 0 and np.any(wl > 0):
                 # K spectral samples per pixel stratum, drawn from the images' weights, each image an equal share
                 bw = resp * (wl / max(wl.max(), 1e-300))[:, None]
@@ -728,7 +735,7 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
                 lines_used = [k for k in range(L) if wl[k] > 0.0]
                 nl = len(lines_used)
                 out["src_lmap"][i, :nl] = lines_used
-            n = p["nx"] * p["ny"] * p["sub"] ** 2
+            n = p["nx"] * p["ny"] * p["sub"] ** 2 * per
             R, Th, Tl = world_frame(scene, p["frame"], s.group)
             out["src_R"][i], out["src_Th"][i], out["src_Tl"][i] = R, Th, Tl
             out["src_n"][i] = n

@@ -11,3 +11,24 @@ def standard_error(s1, s2, n):
         return 0.0
     var = np.maximum(np.asarray(s2) / n - (np.asarray(s1) / n) ** 2, 0.0)
     return np.sqrt(var * n * n / (n - 1))
+
+
+def result_standard_error(res, s1, s2):
+    """A trace result's standard error of a total with sums s1 and s2: `standard_error` over its source rays,
+    or for stratified pairs (a camera trace with DIRECTIONS: res.paired) sqrt(s2), s2 being the sum over pairs
+    of (a - b)^2, an unbiased estimate of the stratified total's variance."""
+    if getattr(res, "paired", False):
+        return np.sqrt(np.maximum(np.asarray(s2, float), 0.0))
+    return standard_error(s1, s2, res.n_traced)
+
+
+def total_standard_error(res, s1, s2):
+    """The standard error of a total over lines from per-line sums s1, s2 (shape (..., L)).  A ray carries one
+    line, so the lines' variances add; but the lines of a CORRELATED camera trace (res.correlated) share their
+    random numbers and their errors are correlated: then the sum of the lines' standard errors, the bound that
+    holds for any correlation."""
+    s1 = np.asarray(s1, float)
+    s2 = np.asarray(s2, float)
+    if getattr(res, "correlated", False):
+        return float(np.sum(result_standard_error(res, s1, s2)))
+    return float(result_standard_error(res, float(s1.sum()), float(s2.sum())))

@@ -64,7 +64,12 @@ DIR_COLLIMATED, DIR_DIVERGE, DIR_CONVERGE, DIR_FIELD, DIR_LAMBERT = range(5)
 #: ``Sources.random``: lattice points, random points, stratified (one random point per cell), a camera's
 #: spectral samples (lines drawn from the bands' cumulative weights in ``Sources.pts``)
 SAMPLE_LATTICE, SAMPLE_RANDOM, SAMPLE_STRATIFIED, SAMPLE_SPECTRAL = range(4)
-N_SRC_PAR = 12
+#: ``Sources.par`` columns: a kind's own (0-10), DIRECTIONS m of a camera (11), 1 for a camera's one elliptical
+#: pixel (12: a DISK or ELLIPSE aperture), 1 for a camera whose lines share their random numbers (13: CORRELATED)
+N_SRC_PAR = 14
+SP_DIRECTIONS = 11
+SP_ELLIPSE = 12
+SP_CORRELATED = 13
 
 # ---------------------------------------------------------------------------------------------- tallies
 #: ledger columns
@@ -98,8 +103,9 @@ Detectors = namedtuple("Detectors", "nx ny ext off qe start")
 #: per source: kind, dir, par (S, N_SRC_PAR), R (S, 9), Th, Tl (S, 3), n (rays per line), off (first ray id),
 #: w (S, L), random (SAMPLE_*), toward, pts and pts_off (row tables), lmap (S, L) its traced lines
 Sources = namedtuple("Sources", "kind dir par R Th Tl n off w random toward pts pts_off lmap")
-#: per chunk: led (chunks, rows, 5, L), inc_sq (chunks, rows, L), the deposit lists idx, w (chunks, cap), n
-Tallies = namedtuple("Tallies", "led inc_sq dep_idx dep_w dep_n")
+#: per chunk: led (chunks, rows, 5, L), inc_sq (chunks, rows, L), the deposit lists idx, w, d (chunks, cap; d the
+#: deposit the variance squares: w, or a stratified pair's difference), n
+Tallies = namedtuple("Tallies", "led inc_sq dep_idx dep_w dep_d dep_n")
 #: per chunk and path end: pos (6: double-double), dir, w, line, src, obj, ev, flags, hist (H), opl, start (2);
 #: n their count (-1: the chunk overflowed its room)
 Records = namedtuple("Records", "pos dir w line src obj ev flags hist opl start n")

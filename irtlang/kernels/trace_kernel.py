@@ -36,7 +36,7 @@ from .layout import (AP_NONE, C_ABS, C_INC, C_REF, C_SCA, C_TRA, DIR_COLLIMATED,
                      DIR_LAMBERT, EV_A, EV_R, EV_S, EV_T, FL_ESCAPED, FL_HALTED, FL_LOST,
                      FL_REFLECTED, FL_SCATTERED, FL_TRANSMITTED, IF_ABSORB, IF_FRESNEL, IF_METAL,
                      IF_POLARIZER, IF_REFLECT, IF_RETARDER, IF_SPLIT, PHASE_HG, PHASE_RAYLEIGH,
-                     SAMPLE_SPECTRAL, SF_AP, SF_BS, SF_HOLE, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
+                     SAMPLE_SPECTRAL, SF_AP, SP_CORRELATED, SP_DIRECTIONS, SF_BS, SF_HOLE, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
                      SI_AXIS, SI_FAM, SI_FIDX, SI_KIND, SI_OBJ, SPEC_CLASS_MAP, SPEC_FRACTION_MAP, SPEC_GATE,
                      SPEC_MODEL)
 from .layout import Detectors, Media, Scatter, Sources, Surfaces
@@ -361,9 +361,13 @@ def _turn(dx, dy, dz, mu, u):
 
 @numba.njit(cache=True, inline="always")
 def _gen(i, total, seed, SRC, o_bc, o_br, src_dw):
-    """Ray i: (source, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, sx, sy); (sx, sy) is the start point
-    in the source's own frame (the pupil coordinates of a GRID).  Ids past `total` start another
-    pass over the sources (TRACE UNTIL ERROR) with fresh random numbers."""
+    """Ray i: (source, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, sx, sy, pm, key); (sx, sy) is the
+    start point in the source's own frame (the pupil coordinates of a GRID); pm is 0, or for a camera with
+    DIRECTIONS m (par[SP_DIRECTIONS] = m) 1 or 2: the first or second ray of a pair drawn in the same one of
+    the m x m strata of the aim cone (its rays 2k and 2k + 1; the tallies take the variance from their
+    difference); key is the ray's random stream: i, or for a CORRELATED camera (par[SP_CORRELATED] = 1) the id
+    of its start point's first line, so that every line of a start point draws the same numbers.  Ids past
+    `total` start another pass over the sources (TRACE UNTIL ERROR) with fresh random numbers."""
     src_kind = SRC.kind
     src_dir = SRC.dir
     src_par = SRC.par
@@ -386,6 +390,19 @@ def _gen(i, total, seed, SRC, o_bc, o_br, src_dw):
     n = src_n[s]
     slot = 0 if j < n else j // n
     q = j - slot * n
+    if src_par[s, SP_CORRELATED] > 0.0:
+        i -= slot * n
+    pm = 0
+    st = 0
+    nd = int(src_par[s, SP_DIRECTIONS])
+    if nd > 0:
+        # DIRECTIONS m: 2 m^2 rays per start point, two in each stratum (consecutive ids: the pair)
+        per = 2 * nd * nd
+        pos = q // per
+        r = q - pos * per
+        st = r >> 1
+        pm = 1 + (r & 1)
+        q = pos
     if src_random[s] == SAMPLE_SPECTRAL:
         # a camera's spectral samples: slot k of K draws its line from the bands' weights, stratified over
         # their cumulative distribution (rows (cdf, line) in src_pts; src_w holds weight / (pmf K))
@@ -420,11 +437,11 @@ def _gen(i, total, seed, SRC, o_bc, o_br, src_dw):
     plz += src_Tl[s, 2]
     dk = src_dir[s]
     if dk == DIR_COLLIMATED:  # the world direction is the source's own (_collimated_dirs), the same every ray
-        return s, line, phx, phy, phz, plx, ply, plz, src_dw[s, 0], src_dw[s, 1], src_dw[s, 2], w, lx, ly
+        return s, line, phx, phy, phz, plx, ply, plz, src_dw[s, 0], src_dw[s, 1], src_dw[s, 2], w, lx, ly, pm, i
     if dk != DIR_LAMBERT:   # the direction plugin's, per ray
         ldx, ldy, ldz = _source_direction(dk, SRC, s, lx, ly, lz)
         dwx, dwy, dwz = _dir_to_world(src_R, s, ldx, ldy, ldz)
-        return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w, lx, ly
+        return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w, lx, ly, pm, i
     # a Lambertian emitter (sphere, disk, point, a camera's pixels)
     u2, u3 = uniform2(seed, i, 0, 1)      # the direction's numbers: drawn only by the sources that use them
     nwx = src_R[s, 0] * ax + src_R[s, 1] * ay + src_R[s, 2] * az
@@ -437,17 +454,20 @@ def _gen(i, total, seed, SRC, o_bc, o_br, src_dw):
         cy = o_bc[tgt, 1] - src_Th[s, 1] - src_Tl[s, 1]
         cz = o_bc[tgt, 2] - src_Th[s, 2] - src_Tl[s, 2]
         kx, ky, kz, omc = _cone_to(wx, wy, wz, cx, cy, cz, o_br[tgt])
+        if nd > 0:      # the pair's stratum: m bands of equal solid angle in cos(angle) by m in azimuth
+            u2 = (st % nd + u2) / nd
+            u3 = (st // nd + u3) / nd
         dwx, dwy, dwz = _cone_dir(u2, u3, omc, kx, ky, kz)
         omega = TWO_PI * omc
         w *= _source_toward(kind, SRC, s, dwx * nwx + dwy * nwy + dwz * nwz, omega)
-        return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w, lx, ly
+        return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w, lx, ly, pm, i
     x, y, z, wf = _source_lambert(kind, SRC, s, u2, u3)
     w *= wf
     t1x, t1y, t1z, t2x, t2y, t2z = onb(nwx, nwy, nwz)
     dwx = x * t1x + y * t2x + z * nwx
     dwy = x * t1y + y * t2y + z * nwy
     dwz = x * t1z + y * t2z + z * nwz
-    return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w, lx, ly
+    return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w, lx, ly, pm, i
 
 
 @numba.njit(cache=True, inline="always")
@@ -612,10 +632,11 @@ def _pop(stack, sp, hist, H, stq, stu, stv, ex, ey, ez):
 # Inlined into _trace_chunks.  Numba loses a parallel loop's writes to an array reached through a tuple, so a
 # helper may READ a layout structure (S, SC, MD, D) but writes only into arrays passed to it as such.
 @numba.njit(cache=True, inline="always")
-def _deposit(D, dd, dep_idx, dep_w, c, ndep, cap, line, L, w, lx, ly, sx0, sy0, s_f, j, dx, dy, dz, ex, ey, ez,
-             stq, stu, stv):
+def _deposit(D, dd, dep_idx, dep_w, dep_d, c, ndep, cap, line, L, w, lx, ly, sx0, sy0, s_f, j, dx, dy, dz, ex, ey,
+             ez, stq, stu, stv):
     """A hit on detector dd: its pixel's deposit (and in a polarized trace the Q, U, V deposits, in the detector's
-    frame).  Returns the deposit count and the ray's Stokes frame (made perpendicular to d)."""
+    frame); dep_d, the deposit the variance squares, starts equal to dep_w (the second ray of a stratified pair
+    negates its own).  Returns the deposit count and the ray's Stokes frame (made perpendicular to d)."""
     x0 = D.ext[dd, 0]
     x1 = D.ext[dd, 1]
     y0 = D.ext[dd, 2]
@@ -632,6 +653,7 @@ def _deposit(D, dd, dep_idx, dep_w, c, ndep, cap, line, L, w, lx, ly, sx0, sy0, 
         if ndep < cap:
             dep_idx[c, ndep] = D.off[dd] + (line * ny + iy) * nx + ix
             dep_w[c, ndep] = w * D.qe[dd, line]
+            dep_d[c, ndep] = dep_w[c, ndep]
         ndep += 1
         if F_POLAR:
             # Q, U, V in the detector's frame (e1: its local x, projected across the ray), deposited as images
@@ -645,6 +667,7 @@ def _deposit(D, dd, dep_idx, dep_w, c, ndep, cap, line, L, w, lx, ly, sx0, sy0, 
                 if ndep < cap:
                     dep_idx[c, ndep] = D.off[dd] + comp * stride + (line * ny + iy) * nx + ix
                     dep_w[c, ndep] = wd * (dq if comp == 1 else (du if comp == 2 else stv))
+                    dep_d[c, ndep] = dep_w[c, ndep]
                 ndep += 1
     return ndep, ex, ey, ez
 
@@ -926,9 +949,28 @@ def _close_source_ray(inc_sq, c, line, acc, touched, nt):
 
 
 @numba.njit(cache=True, inline="always")
-def _merge_deposits(dep_idx, dep_w, c, dep0, ndep):
-    """One deposit per pixel and source ray (reduce_batch squares each deposit): merge entries dep0 .. ndep - 1
-    that share a pixel, in first-seen order.  Returns the new count."""
+def _close_pair(inc_sq, c, line0, line, acc0, acc, touched, nt):
+    """The second ray of a stratified pair (camera DIRECTIONS): the squares of the pair's difference per object
+    (E (a - b)^2 = 2 var within the stratum, so the sum over pairs estimates the variance of the total without
+    the spread between strata); rays of different lines are different tallies (a - 0 and 0 - b).  `touched` may
+    name an object twice (once per ray): the second time finds it zeroed."""
+    for q in range(nt):
+        o = touched[q]
+        a = acc0[o]
+        b = acc[o]
+        if line0 == line:
+            inc_sq[c, o, line] += (a - b) * (a - b)
+        else:
+            inc_sq[c, o, line0] += a * a
+            inc_sq[c, o, line] += b * b
+        acc0[o] = 0.0
+        acc[o] = 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _merge_deposits(dep_idx, dep_w, dep_d, c, dep0, ndep):
+    """One deposit per pixel and source ray, or per stratified pair (reduce_batch adds dep_w and squares dep_d):
+    merge entries dep0 .. ndep - 1 that share a pixel, in first-seen order.  Returns the new count."""
     kk = dep0
     for qa in range(dep0, ndep):
         qb = dep0
@@ -936,9 +978,11 @@ def _merge_deposits(dep_idx, dep_w, c, dep0, ndep):
             qb += 1
         if qb < kk:
             dep_w[c, qb] += dep_w[c, qa]
+            dep_d[c, qb] += dep_d[c, qa]
         else:
             dep_idx[c, kk] = dep_idx[c, qa]
             dep_w[c, kk] = dep_w[c, qa]
+            dep_d[c, kk] = dep_d[c, qa]
             kk += 1
     return kk
 
@@ -960,7 +1004,7 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                   MD.alb, MD.g, MD.phase, MD.depol, MD.tgt, MD.nee, MD.coat_R, MD.coat_T, D.nx, D.ny, D.ext, D.off,
                   D.qe, D.start, SRC.kind, SRC.dir, SRC.par, SRC.R, SRC.Th, SRC.Tl, SRC.n, SRC.off, SRC.w,
                   SRC.random, SRC.toward, SRC.pts, SRC.pts_off, SRC.lmap, T.led, T.inc_sq, T.dep_idx, T.dep_w,
-                  T.dep_n, REC.pos, REC.dir, REC.w, REC.line, REC.src, REC.obj, REC.ev, REC.flags, REC.hist,
+                  T.dep_d, T.dep_n, REC.pos, REC.dir, REC.w, REC.line, REC.src, REC.obj, REC.ev, REC.flags, REC.hist,
                   REC.opl, REC.start, REC.n)
 
 
@@ -971,7 +1015,7 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                   map_nlat, map_nlon, mod_kind, mod_P, mod_slab, med_n, med_alpha, med_row, med_sig, med_alb, med_g,
                   med_phase, med_depol, med_tgt, med_nee, md_coat_R, md_coat_T, d_nx, d_ny, d_ext, d_off, d_qe,
                   d_start, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random,
-                  src_toward, src_pts, src_pts_off, src_lmap, led, inc_sq, dep_idx, dep_w, dep_n, rec_pos, rec_dir,
+                  src_toward, src_pts, src_pts_off, src_lmap, led, inc_sq, dep_idx, dep_w, dep_d, dep_n, rec_pos, rec_dir,
                   rec_w, rec_line, rec_src, rec_obj, rec_ev, rec_flags, rec_hist, rec_opl, rec_start, rec_n):
     """trace_batch's parallel loop over chunks, on the structures' fields as plain arguments: Numba optimizes a
     parallel loop over plain array arguments better (a loop over namedtuple arguments ran 20 % slower, measured
@@ -1007,14 +1051,21 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
         # whole source-ray contributions (split paths, rays sent toward a target and repeated hits of one
         # source ray are correlated: squaring each incidence alone underestimates the standard error)
         acc = np.zeros(nrows)
-        touched = np.empty(nrows, np.int64)
+        touched = np.empty(2 * nrows, np.int64)     # twice: a stratified pair's two rays
+        acc0 = np.zeros(nrows)      # a pair's first ray's (camera DIRECTIONS)
+        line0 = 0
+        dep1 = 0
+        nt = 0
+        dep0 = 0
         for ii in range(c * CHUNK, min(n, (c + 1) * CHUNK)):
             i = first + ii
-            s, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, sx0, sy0 = _gen(i, total, seed, SRC, o_bc, o_br,
-                                                                                  src_dw)
+            # i: from here on the ray's random stream (its id, or a CORRELATED camera's shared one)
+            s, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, sx0, sy0, pm, i = _gen(i, total, seed, SRC, o_bc,
+                                                                                         o_br, src_dw)
             led[c, r_emit, C_INC, line] += w
-            nt = 0
-            dep0 = ndep
+            if pm != 2:         # a pair's second ray adds to its first's tallies (_close_pair)
+                nt = 0
+                dep0 = ndep
             for h in range(H):
                 hist[h] = -1.0
             # the source ray's own path starts from these locals; split paths and rays sent toward a target
@@ -1172,7 +1223,7 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                     last = o
                     dd = o_det[o]
                     if dd >= 0:
-                        ndep, ex, ey, ez = _deposit(D, dd, dep_idx, dep_w, c, ndep, cap, line, led.shape[3], w,
+                        ndep, ex, ey, ez = _deposit(D, dd, dep_idx, dep_w, dep_d, c, ndep, cap, line, led.shape[3], w,
                                                     lx, ly, sx0, sy0, s_f, j, dx, dy, dz, ex, ey, ez, stq, stu, stv)
                     # the interface: specular R and T, absorbed A
                     R, T, Ar, Br, xr, yr, At, Bt, xt, yt = _specular(MD, it, o_coat[o], line, ci, m1, m2)
@@ -1441,19 +1492,33 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                                 rec_opl, rec_start, c, nrec, (hx, hy, hz, hlx, hly, hlz), (adx, ady, adz), aw, line,
                                 s, last, ev, flags, opl, sx0, sy0, hist, H)
                     nrec += 1
-            _close_source_ray(inc_sq, c, line, acc, touched, nt)
+            if pm == 1:
+                # the first ray of a stratified pair: its tallies wait for the second's
+                for q in range(nt):
+                    acc0[touched[q]] = acc[touched[q]]
+                    acc[touched[q]] = 0.0
+                line0 = line
+                dep1 = ndep
+                continue
+            if pm == 2:
+                _close_pair(inc_sq, c, line0, line, acc0, acc, touched, nt)
+                for q in range(dep1, min(ndep, cap)):
+                    dep_d[c, q] = -dep_d[c, q]
+            else:
+                _close_source_ray(inc_sq, c, line, acc, touched, nt)
             if ndep - dep0 > 1 and ndep <= cap:
-                ndep = _merge_deposits(dep_idx, dep_w, c, dep0, ndep)
+                ndep = _merge_deposits(dep_idx, dep_w, dep_d, c, dep0, ndep)
         dep_n[c] = ndep if ndep <= cap else -1
         rec_n[c] = nrec if nrec <= rcap else -1
 
 
 @numba.njit(cache=True)
-def reduce_batch(led, inc_sq, dep_idx, dep_w, dep_n, ledger, ledger_sq, img, img_sq, d_lo, d_npix, i_off, d_nb, d_fm,
+def reduce_batch(led, inc_sq, dep_idx, dep_w, dep_d, dep_n, ledger, ledger_sq, img, img_sq, d_lo, d_npix, i_off, d_nb, d_fm,
                  d_fm_off):
     """Add a batch's chunk tallies in chunk order (deterministic for any thread count).  A deposit's index is
     d_lo[d] + line * npix + pixel; a detector with filters (d_nb[d] = B > 0) adds w T[line, b] to each filter
-    image b (its (L, B) matrix at d_fm[d_fm_off[d]:]), else the deposit goes to the line's own image."""
+    image b (its (L, B) matrix at d_fm[d_fm_off[d]:]), else the deposit goes to the line's own image.  The
+    squares are dep_d's: a source ray's deposit, or a stratified pair's difference (camera DIRECTIONS)."""
     nd = d_lo.shape[0]
     L = led.shape[3]
     for c in range(led.shape[0]):
@@ -1462,6 +1527,7 @@ def reduce_batch(led, inc_sq, dep_idx, dep_w, dep_n, ledger, ledger_sq, img, img
         for q in range(dep_n[c]):
             k = dep_idx[c, q]
             w = dep_w[c, q]
+            e = dep_d[c, q]
             d = nd - 1
             while d > 0 and k < d_lo[d]:
                 d -= 1
@@ -1469,7 +1535,7 @@ def reduce_batch(led, inc_sq, dep_idx, dep_w, dep_n, ledger, ledger_sq, img, img
             B = d_nb[d]
             if B == 0:
                 img[i_off[d] + rel] += w
-                img_sq[i_off[d] + rel] += w * w
+                img_sq[i_off[d] + rel] += e * e
             else:
                 # a polarized trace's deposits run over (Stokes component, line): component k's filter
                 # images follow component k - 1's
@@ -1480,7 +1546,9 @@ def reduce_batch(led, inc_sq, dep_idx, dep_w, dep_n, ledger, ledger_sq, img, img
                 pix = rel - cl * npx
                 base = d_fm_off[d] + line * B
                 for b in range(B):
-                    wb = w * d_fm[base + b]
-                    if wb != 0.0:
+                    fb = d_fm[base + b]
+                    if fb != 0.0:
+                        wb = w * fb
+                        eb = e * fb
                         img[i_off[d] + (comp * B + b) * npx + pix] += wb
-                        img_sq[i_off[d] + (comp * B + b) * npx + pix] += wb * wb
+                        img_sq[i_off[d] + (comp * B + b) * npx + pix] += eb * eb

@@ -805,6 +805,11 @@ def _square(x):
                                    doc="camera rays per pixel and line: s x s stratified (default 1)"),
                             Clause("SPECTRAL", (V("spectral", integer=True, check=positive),),
                                    doc="k lines per camera ray position, drawn from the images' weights (default: every line)"),
+                            Clause("DIRECTIONS", (V("directions", integer=True, check=positive),),
+                                   doc="2 m^2 rays per camera ray position, a pair in each of m x m strata of the aim "
+                                       "cone (standard errors from the pairs)"),
+                            Clause("CORRELATED", (), doc="every line of a camera ray position draws the same random "
+                                                         "numbers: a spectrum's shape is sharper than each line"),
                             Clause("WINDOW", (V("i0", integer=True, check=nonneg), V("i1", integer=True, check=positive),
                                               V("j0", integer=True, check=nonneg), V("j1", integer=True, check=positive)),
                                    doc="only pixel columns i0..i1-1 and rows j0..j1-1 (from 0)"),
@@ -841,10 +846,11 @@ def _trace(it, b, st):
     _warn_consider(it, b)
     camera = None
     if ("camera" in b or "aim" in b or "per_pixel" in b or "i0" in b or "spectral" in b or "cam_filter" in b
-            or "stokes" in b):
+            or "stokes" in b or "directions" in b or "correlated" in b):
         if "camera" not in b or "aim" not in b:
             raise error(b.span, "a camera-side TRACE needs both CAMERA obj and AIM obj",
-                        "TRACE CAMERA fpa AIM secondary [RAYS n] [SPECTRAL k] [WINDOW i0 i1 j0 j1] [FILTER f] [STOKES]")
+                        "TRACE CAMERA fpa AIM secondary [RAYS n] [SPECTRAL k] [DIRECTIONS m] [CORRELATED] "
+                        "[WINDOW i0 i1 j0 j1] [FILTER f] [STOKES]")
         if "stokes" in b and not s.polarization:
             raise error(b.span_of("stokes"), "TRACE CAMERA ... STOKES needs a polarized trace",
                         "put POLARIZATION before the TRACE")
@@ -862,7 +868,22 @@ def _trace(it, b, st):
         if win is not None and not (win[0] < win[1] <= cam.detector.nx and win[2] < win[3] <= cam.detector.ny):
             raise error(b.span, f"WINDOW {win[0]} {win[1]} {win[2]} {win[3]} is not inside the detector's "
                         f"{cam.detector.nx} x {cam.detector.ny} pixels", "columns i0 < i1 <= nx, rows j0 < j1 <= ny")
+        ap = cam.surfaces[0].aperture if cam.surfaces else None
+        if ap is not None and (ap.kind == "ANNULUS" or (ap.kind in ("DISK", "ELLIPSE")
+                                                        and cam.detector.nx * cam.detector.ny > 1)):
+            raise error(b.span_of("camera"), f"TRACE CAMERA {cam.name}: a camera's detector is a RECT of pixels, or one "
+                        f"pixel on a DISK or ELLIPSE ({cam.name} has {ap.kind}"
+                        + (f" and {cam.detector.nx} x {cam.detector.ny} pixels)" if ap.kind != "ANNULUS" else ")"),
+                        "give the camera's PLANE a RECT aperture, or its DETECTOR PIXELS 1",
+                        notes=[(cam.span, "the camera object")])
         filters = [f for f, _ in cam.detector.filters] if cam.detector.filters else []
+        if "correlated" in b and (filters or "spectral" in b):
+            # a band image sums lines whose errors are then correlated: its per-pixel standard errors would
+            # assume them independent
+            raise error(b.span_of("correlated"), "TRACE CAMERA ... CORRELATED needs a camera that traces every line "
+                        "into its own image: no SPECTRAL, and a DETECTOR without FILTERS",
+                        "CORRELATED is for spectra (SPECTRUM OF the camera); band images: SPECTRAL k without it",
+                        notes=[(cam.span, "the camera object")])
         only = None
         if "cam_filter" in b:
             names = [f.upper() for f in filters]
@@ -874,7 +895,8 @@ def _trace(it, b, st):
             only = filters[names.index(b["cam_filter"])]
             filters = [only]
         camera = {"camera": b["camera"], "aim": b["aim"], "sub": math.isqrt(int(b.get("per_pixel", 1))),
-                  "window": win, "spectral": int(b.get("spectral", 0)), "filter": only, "stokes": "stokes" in b}
+                  "window": win, "spectral": int(b.get("spectral", 0)), "filter": only, "stokes": "stokes" in b,
+                  "directions": int(b.get("directions", 0)), "correlated": "correlated" in b}
         # the light's band irradiance at 1 AU (W/m2) per image of the camera, for I/F; set by the run, 0 here
         for fname in (filters or [""]):
             it.assign("CAMERA_SUN" + (f"_{fname}" if fname else ""), Quantity(0.0, NONE), b.span)

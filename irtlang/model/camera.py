@@ -7,6 +7,12 @@ the other way, as renderers do (docs/tracer.md, "Camera-side images"):
 * rays start on the camera detector's pixels, ``s x s`` stratified points per pixel (one random point in each
   sub-cell) and per traced line, Lambertian toward the AIM object (the instrument's first element seen from the
   focal plane), so they go backward through the instrument's own objects and out through its pupil;
+* with ``DIRECTIONS m`` each point sends 2 m^2 rays instead of one: a pair in each of m x m strata of equal
+  solid angle of the aim cone (m bands in the cosine of the angle from the cone's axis by m in azimuth).  The
+  strata take the spread between directions out of the estimate; its variance comes from the pairs: the sum
+  over strata of (a - b)^2 is an unbiased estimate of the variance of the stratified total (a and b are
+  independent draws in one stratum), which the per-ray spread would overstate.  A one-pixel camera at an
+  entrance pupil, aimed at a planet, so gives the disk-integrated spectrum (``SPECTRUM OF`` the camera);
 * spectral sampling: with ``SPECTRAL k`` each of the s x s points carries k rays whose lines are drawn from the
   images' weights (light radiance x filter x QE, each image an equal share), stratified over their cumulative
   distribution, each weighted by 1 / (k pmf); without it every line the detector sees gets its own rays;
@@ -45,7 +51,8 @@ def camera_scene(scene: M.Scene, params: dict, span: Span, analyzer: tuple = ())
     """The scene of a camera trace and what the engine needs to present its image as the camera's.
 
     params: camera (object key), aim (object key), sub (s: s x s rays per pixel and line), spectral (k spectral
-    samples per point, 0: every line), window
+    samples per point, 0: every line), directions (m: 2 m^2 rays per point, a pair in each of m x m strata of
+    the aim cone; 0: one ray, uniform in the cone), window
     ((i0, i1, j0, j1) pixel columns i0..i1-1 and rows j0..j1-1, or None for the whole detector).
     analyzer: ideal elements on the detector's face, from the detector outward: ("polarizer", angle) or
     ("retarder", angle, retardance), angles in radians from the detector's local x toward its y."""
@@ -73,6 +80,13 @@ def camera_scene(scene: M.Scene, params: dict, span: Span, analyzer: tuple = ())
     ap = surf.aperture
     hx, hy = ap.params[:2] if ap.kind in ("RECT", "ELLIPSE") else (ap.params[-1], ap.params[-1])
     nx, ny = det.nx, det.ny
+    # a RECT's pixels tile it; a DISK or ELLIPSE is one pixel, sampled over the ellipse itself (a grid's corner
+    # pixels would lie partly outside it)
+    ellipse = ap.kind in ("DISK", "ELLIPSE")
+    if ap.kind == "ANNULUS" or (ellipse and nx * ny > 1):
+        raise error(span, f"TRACE CAMERA {cam.name}: a camera's detector is a RECT of pixels, or one pixel on a DISK "
+                    f"or ELLIPSE ({cam.name} has {ap.kind}" + (f" and {nx} x {ny} pixels)" if ellipse else ")"),
+                    "give the camera's PLANE a RECT aperture, or its DETECTOR PIXELS 1")
     px, py = 2 * hx / nx, 2 * hy / ny
     i0, i1, j0, j1 = params.get("window") or (0, nx, 0, ny)
     if not (0 <= i0 < i1 <= nx and 0 <= j0 < j1 <= ny):
@@ -135,7 +149,8 @@ def camera_scene(scene: M.Scene, params: dict, span: Span, analyzer: tuple = ())
                     f"analyzers on its face ({len(analyzer) * gap:.3g} m in front of a detector {2 * hx:.3g} m wide)",
                     "put the instrument in a GROUP and PLACE it: its own coordinates then stay small")
     n_obj = (surf.frame.R[2], surf.frame.R[5], surf.frame.R[8])      # the detector's normal, object frame
-    medium = cam.interface.front if side > 0 else cam.interface.back
+    itf = cam.interface          # a detector object without an INTERFACE sits in air
+    medium = "AIR" if itf is None else (itf.front if side > 0 else itf.back)
     for k, el in enumerate(analyzer):
         aname = f"CAMERA_ANALYZER_{k}"
         while aname in new_objs:
@@ -152,11 +167,15 @@ def camera_scene(scene: M.Scene, params: dict, span: Span, analyzer: tuple = ())
         media[k] = m
     src = M.Source("CAMERA", M.frozen_params(dict(
         extent=extent, nx=i1 - i0, ny=j1 - j0, sub=params["sub"], side=side, aim=params["aim"], frame=frame,
-        pixel_area=px * py, light_radius=lp["radius"], light_flux=light.flux, response=response,
-        spectral=spectral)),
+        pixel_area=px * py * (math.pi / 4 if ellipse else 1.0), ellipse=ellipse, light_radius=lp["radius"],
+        light_flux=light.flux, response=response, spectral=spectral, directions=int(params.get("directions") or 0),
+        correlated=bool(params.get("correlated")))),
         cam.group, light.flux, span)
     sc2 = M.replace(scene, objects=M.frozen_params(new_objs), media=M.frozen_params(media), sources=(src,))
-    info = dict(camera=cam.name, light=lname, window=(i0, i1, j0, j1), rays_per_pixel_line=params["sub"] ** 2,
+    m = int(params.get("directions") or 0)
+    info = dict(camera=cam.name, light=lname, window=(i0, i1, j0, j1),
+                rays_per_pixel_line=params["sub"] ** 2 * (2 * m * m if m else 1), paired=m > 0, directions=m,
+                correlated=bool(params.get("correlated")),
                 side=side,
                 lines=sum(mask), spectral=spectral, samples=spectral if spectral > 0 else sum(mask),
                 pixel_size=(px, py))

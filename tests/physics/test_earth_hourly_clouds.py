@@ -205,7 +205,8 @@ def test_the_earth_script_takes_the_clouds_of_each_hour(merra_dir):
                          ([f"clouds_file='{pattern}'"], ["MERRA2_300.tavg1_2d_rad_Nx.20080318_CLDLOW_18.npy",
                                                          "MERRA2_300.tavg1_2d_rad_Nx.20080318_CLDLOW_19.npy"])):
         it = check_file(script, base + extra)
-        traces = [s for s in it.steps if s.kind == "TRACE" and not s.params.get("camera")]   # forward traces
+        # the image traces, one per frame (the forward trace runs in the first frame only)
+        traces = [s for s in it.steps if s.kind == "TRACE" and (s.params.get("camera") or {}).get("camera") == "FPA"]
         assert len(traces) == 2
         for st, want in zip(traces, names):
             assert Path(st.scene.maps["CLOUD_LOW"].path).name == want

@@ -11,7 +11,9 @@ nx*ny random points with RANDOM.  Local x, y follow the cyclic order of PLANE.  
 """
 import numba
 
-from ...kernels.layout import SAMPLE_RANDOM, SAMPLE_STRATIFIED
+import math
+
+from ...kernels.layout import SAMPLE_RANDOM, SAMPLE_STRATIFIED, SP_ELLIPSE
 from ...core.diagnostics import error
 from ...lang.spec import Axis, Form, V, positive
 from ...core.units import LENGTH
@@ -36,7 +38,9 @@ def build(b, ctx) -> dict:
 @numba.njit(cache=True, inline="always")
 def emit(SRC, s, q, u0, u1):
     """Point q of the nx x ny lattice (or a random point; or one random point in cell q: camera pixels); the
-    Lambertian axis of a camera's pixels, on the side par[8] (+-1)."""
+    Lambertian axis of a camera's pixels, on the side par[8] (+-1).  A camera's one elliptical pixel
+    (par[SP_ELLIPSE] = 1: a DISK or ELLIPSE aperture) takes the point to the ellipse inscribed in the extent by
+    Shirley and Chiu's concentric map, which keeps areas and so the strata."""
     par = SRC.par
     nx = int(par[s, 4])
     ny = int(par[s, 5])
@@ -52,6 +56,20 @@ def emit(SRC, s, q, u0, u1):
         else:
             fx = (ix + 0.5) / nx
             fy = (iy + 0.5) / ny
+    if par[s, SP_ELLIPSE] > 0.0:
+        a = 2.0 * fx - 1.0
+        b = 2.0 * fy - 1.0
+        if a == 0.0 and b == 0.0:
+            r = 0.0
+            phi = 0.0
+        elif abs(a) > abs(b):
+            r = a
+            phi = 0.25 * math.pi * (b / a)
+        else:
+            r = b
+            phi = 0.5 * math.pi - 0.25 * math.pi * (a / b)
+        fx = 0.5 + 0.5 * r * math.cos(phi)
+        fy = 0.5 + 0.5 * r * math.sin(phi)
     lx = par[s, 0] + (par[s, 1] - par[s, 0]) * fx
     ly = par[s, 2] + (par[s, 3] - par[s, 2]) * fy
     return lx, ly, 0.0, 0.0, 0.0, par[s, 8]
