@@ -271,6 +271,13 @@ class Engine:
         res.packed = dataclasses.replace(res.packed, detector_names=[info["camera"]])
         res.camera = info
         res.paired = info["paired"]
+        if self.collector is not None:
+            # results.nc's frames: a forward TRACE opens one; a camera trace opens one when the EPOCH moved on
+            # since the last frame (a run whose later hours have camera traces only)
+            epoch = interp.lookup("EPOCH_UTC") if interp is not None else None
+            fr = self.collector.frames
+            if isinstance(epoch, str) and (not fr or fr[-1]["epoch"] != epoch):
+                self.collector.new_frame(epoch, n_traced)
         res.correlated = info["correlated"]
         self.result = res
         self.scene = csc

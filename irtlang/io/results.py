@@ -11,7 +11,7 @@ writes the Dataset atomically as NetCDF4 into the run folder.  docs/python_api.m
   ``field_y_<var>`` in arcseconds where the focal length is known, and a ``wavelength`` (an image per line)
   or ``band`` (an image per DETECTOR FILTER) axis;
 * ``<var>_stderr``: the Monte Carlo standard error, linked by ``ancillary_variables``;
-* spectra: ``spectrum_<object>`` on the ``wavelength`` axis; the ledger: ``ledger`` (object x column).
+* spectra: ``spectrum_<object>`` on the ``wavelength`` axis (``spectrum_<object>_<folder>`` for its other folders); the ledger: ``ledger`` (object x column).
 
 xarray is imported only when a Dataset is built (``import irtlang`` stays cheap); ``write_results`` writes the
 same file with netCDF4 alone.
@@ -19,6 +19,7 @@ same file with netCDF4 alone.
 from __future__ import annotations
 
 import math
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -283,17 +284,25 @@ def _layout(col: ResultsCollector, info: dict, *, images: bool = True):
             data_vars[var] = (dims, arr, attrs)
 
     # ---------------------------------------------------------------- spectra
+    # one variable per object and folder of the files written ('spectra/...' and 'spectra_forward/...': the same
+    # object's spectrum by two traces): spectrum_<object> for its folder with the most spectra, the others
+    # spectrum_<object>_<folder>
     spec_groups: dict = {}
     for s in col.spectra:
-        spec_groups.setdefault((s[1], s[2]), []).append(s)
-    for (name, lines), ss in spec_groups.items():
+        spec_groups.setdefault((s[1], s[2], os.path.dirname(s[5])), []).append(s)
+    main: dict = {}
+    for (name, _, folder), ss in spec_groups.items():
+        if name not in main or len(ss) > main[name][1]:
+            main[name] = (folder, len(ss))
+    for (name, lines, folder), ss in spec_groups.items():
         frames = [s[0] for s in ss]
         if len(set(frames)) != len(frames):   # the same object twice in a frame: one variable each
             chunks = [[s] for s in ss]
         else:
             chunks = [ss]
+        base = "spectrum_" + _ident(name) + ("" if folder == main[name][0] else f"_{_ident(folder or 'run')}")
         for ch in chunks:
-            var = names.take("spectrum_" + _ident(name))
+            var = names.take(base)
             fr = [s[0] for s in ch]
             fdims, c = frame_axis(fr, var)
             coords.update(c)

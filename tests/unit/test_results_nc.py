@@ -63,3 +63,24 @@ def test_writing_does_not_import_xarray(tmp_path):
             "print(sorted(m for m in ('xarray', 'dask', 'distributed') if m in sys.modules))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_one_object_spectra_from_two_folders(tmp_path):
+    """The flagship writes the pupil's spectrum every hour to spectra/ (the camera-side trace) and in the first
+    hour also to spectra_forward/ (the forward trace): two variables, the hourly one keeping the plain name, not
+    one variable per spectrum.  Written and read back as build_dataset makes it."""
+    col = ResultsCollector()
+    rng = np.random.default_rng(5)
+    for f in range(3):
+        col.new_frame(f"2008-03-18T{18 + f:02d}:19:00", 10)
+        if f == 0:
+            col.add_spectrum("pupil", (450, 550), rng.random(2), rng.random(2), file="spectra_forward/a.csv")
+        col.add_spectrum("pupil", (450, 550), rng.random(2), rng.random(2), file=f"spectra/{f}.csv")
+    want = build_dataset(col, INFO)
+    assert want["spectrum_pupil"].dims == ("time", "wavelength")
+    assert want["spectrum_pupil"].shape == (3, 2)
+    assert want["spectrum_pupil_spectra_forward"].shape == (2,)
+    p = write_results(col, INFO, tmp_path / "results.nc")
+    with xr.open_dataset(p) as got:
+        assert set(got.data_vars) == set(want.data_vars)
+        np.testing.assert_array_equal(got["spectrum_pupil"].values, want["spectrum_pupil"].values)
