@@ -758,6 +758,23 @@ def _interface_frame(it, o_pol, o, s_f, j, dx, dy, dz, nwx, nwy, nwz, ex, ey, ez
 
 
 @numba.njit(cache=True, inline="always")
+def _gate(SC, scf, scn, lx, ly, lz, R, T):
+    """OPAQUE WHERE (the object's first SCATTER spec is a gate map): the object is present (opaque: its models,
+    the rest absorbed) where its gate map is 1 at the hit (lx, ly, lz), and clear air elsewhere (its TRANSMIT
+    interface, no scattering).  Returns (R, T, first spec, spec count) for what follows."""
+    glat, glon = geodetic(lx, ly, lz)
+    gm = SC.map[scf]
+    scf += 1
+    scn -= 1
+    if map_value(SC.map_data, SC.map_off[gm], SC.map_nlat[gm], SC.map_nlon[gm], glat, glon) > 0.5:
+        R = 0.0
+        T = 0.0
+    else:
+        scn = 0
+    return R, T, scf, scn
+
+
+@numba.njit(cache=True, inline="always")
 def _scatter_spec(SC, first, cnt, lx, ly, lz, seed, i, ev, path):
     """Which scatter model applies at this hit: the object's SCATTER specs tried in order (a class map picks by
     the class under the point, a fraction map draws against the fraction).  (model, RAYS n, TOWARD target);
@@ -906,6 +923,342 @@ def _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, kc, mk, P, tgt, nr,
             npath += 1
             led[c, r_imp, C_ABS, line] -= cw
     return sp, npath
+
+
+@numba.njit(cache=True, inline="always")
+def _volume_event(stack, sp, npath, led, c, rows, key, line, MD, m1, t, w, w0, cut, nee, o_bc, o_br, pos, d, pol,
+                  opl, sx0, sy0, hist, H, state):
+    """A ray crossing a scattering medium (VOLUME) of medium m1 toward a surface t away.  A ray aimed at a
+    target is only attenuated.  Any other draws a free path; when it ends before the surface the ray scatters
+    there: the albedo, rays toward the medium's target (_volume_toward), a new direction from the phase function,
+    roulette.  rows (IMPORTANCE, HALTED), key (seed, ray, path), cut (halt, nee_cut), state (ev, excl, jlast,
+    flags).  Returns (scattered, w, position (6), d (3), Stokes state (6), opl, ev, excl, jlast, flags, sp,
+    npath)."""
+    r_imp, r_halt = rows
+    seed, i, path = key
+    halt, nee_cut = cut
+    phx, phy, phz, plx, ply, plz = pos
+    dx, dy, dz = d
+    stq, stu, stv, ex, ey, ez = pol
+    ev, excl, jlast, flags = state
+    scattered = False
+    sig = MD.sig[m1, line]
+    rm = MD.row[m1]
+    if nee:
+        keep = math.exp(-sig * t)      # rays aimed at a target are only attenuated
+        led[c, rm, C_INC, line] += w
+        led[c, rm, C_ABS, line] += w * (1.0 - keep)
+        led[c, rm, C_TRA, line] += w * keep
+        w *= keep
+    else:
+        uf, ua = uniform2(seed, i, ev, path * 64 + 60)
+        sdist = -math.log(uf) / sig
+        if sdist < t:
+            # a scattering event inside the volume, before the surface
+            scattered = True
+            opl += MD.n[m1, line] * sdist
+            phx, plx = _adv(phx, plx, sdist, dx)
+            phy, ply = _adv(phy, ply, sdist, dy)
+            phz, plz = _adv(phz, plz, sdist, dz)
+            alb = MD.alb[m1, line]
+            led[c, rm, C_INC, line] += w
+            led[c, rm, C_SCA, line] += w * alb
+            led[c, rm, C_ABS, line] += w * (1.0 - alb)
+            w *= alb
+            ev += 1
+            if F_POLAR:
+                ex, ey, ez = frame(dx, dy, dz, ex, ey, ez)
+            pk = MD.phase[m1]
+            gg = MD.g[m1, line]
+            depol = MD.depol[m1]
+            gam = depol / (2.0 - depol)
+            tgt = MD.tgt[m1]
+            if F_IMPORTANCE and tgt >= 0:
+                sp, npath = _volume_toward(stack, sp, npath, led, c, r_imp, line, (seed, i, ev, path), MD.nee[m1],
+                                           pk, gg, gam, depol, tgt, w, nee_cut, o_bc, o_br,
+                                           (phx, phy, phz, plx, ply, plz), (dx, dy, dz), (stq, stu, stv, ex, ey, ez),
+                                           opl, sx0, sy0, hist, H)
+            v0, v1 = uniform2(seed, i, ev, path * 64 + 61)
+            dx, dy, dz, ex, ey, ez, stq, stu, stv = _phase_turn(pk, gg, gam, depol, v0, v1, dx, dy, dz, ex, ey, ez,
+                                                                stq, stu, stv)
+            excl = tgt
+            jlast = -1
+            flags |= FL_SCATTERED
+            if F_HISTORY and ev - 1 < H:
+                hist[ev - 1] = -2      # a volume event
+            # roulette on the volume path too
+            if w > 0.0 and w < halt * w0:
+                ur, _u = uniform2(seed, i, ev, path * 64 + 62)
+                w, booked = _roulette(w, w0, halt, ur)
+                led[c, r_halt, C_ABS, line] += booked
+                if w == 0.0:
+                    flags |= FL_HALTED
+    return (scattered, w, phx, phy, phz, plx, ply, plz, dx, dy, dz, stq, stu, stv, ex, ey, ez, opl, ev, excl, jlast,
+            flags, sp, npath)
+
+
+@numba.njit(cache=True, inline="always")
+def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, scf, scn, nee, w, nee_cut, o_bc, o_br, lpos, pos, d,
+             nv, pol, o, j, opl, sx0, sy0, hist, H):
+    """Expected-value next-event estimation over a fraction map's choice: when the hit's SCATTER specs include a
+    fraction map, every model the hit may use sends its rays toward its target, weighted by the probability that
+    the hit uses it (the random choice in _scatter_spec still decides the path's continuation, which then sends
+    none): the same expectation, without the variance of the choice (a partly cloudy pixel: cloud or not).
+    lpos: the hit in the surface's frame.  Returns (used, sp, npath)."""
+    ev_nee = False
+    if F_MAPS and F_IMPORTANCE and not nee and scn > 0:
+        for qq in range(scn):
+            if SC.kind[scf + qq] == SPEC_FRACTION_MAP:
+                ev_nee = True
+                break
+    if F_MAPS and F_IMPORTANCE and ev_nee:
+        lx, ly, lz = lpos
+        preach = 1.0
+        kc = 0
+        for qq in range(scn):
+            spn = scf + qq
+            kd = SC.kind[spn]
+            pmix = preach
+            mq = -1
+            if kd != SPEC_MODEL:
+                lat, lon = geodetic(lx, ly, lz)
+                mp = SC.map[spn]
+                vq = map_value(SC.map_data, SC.map_off[mp], SC.map_nlat[mp], SC.map_nlon[mp], lat, lon)
+                if kd == SPEC_CLASS_MAP:
+                    cl = int(vq)
+                    if cl >= 0 and cl < SC.cls_n[spn]:
+                        mq = SC.cls_models[SC.cls_off[spn] + cl]
+                    preach = 0.0
+                else:
+                    vq = min(max(vq, 0.0), 1.0)
+                    pmix = preach * vq
+                    mq = SC.model[spn]
+                    preach *= 1.0 - vq
+            else:
+                mq = SC.model[spn]
+                preach = 0.0
+            tq = SC.tgt[spn]
+            if mq >= 0 and tq >= 0 and pmix > 0.0:
+                nr = SC.rays[spn]
+                sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, kc, SC.mod_kind[mq],
+                                         SC.mod_P[mq], tq, nr, w * pmix, nee_cut, o_bc, o_br, pos, d, nv, pol, o, j,
+                                         opl, sx0, sy0, hist, H)
+                kc += nr
+            if preach <= 0.0:
+                break
+    return ev_nee, sp, npath
+
+
+@numba.njit(cache=True, inline="always")
+def _model_split(stack, sp, npath, led, c, r_imp, key, line, SC, MD, spec, geo, fres, cos_i, how, w, nee_cut,
+                 bounds, pos, d, nv, pol, opl, sx0, sy0, hist, H):
+    """How a hit with scatter model spec = (model, RAYS n, TOWARD target) shares its light: the specular R and T
+    that the model leaves, and its diffuse part (a slab model is the whole interaction, behind the boundary's
+    Fresnel reflection on a shell), and the model's rays toward its target (next-event estimation, exact weights;
+    not for a ray itself aimed at a target, nor where _map_nee sent them).  geo (object, surface, interface, m1,
+    m2), fres (R, T, Ar, Br), how (nee, ev_nee), bounds (o_bc, o_br).  Returns (R, T, diffuse, kind, P, sp,
+    npath)."""
+    sc, sc_n, sc_tgt = spec
+    o, j, it, m1, m2 = geo
+    R, T, Ar, Br = fres
+    nee, ev_nee = how
+    o_bc, o_br = bounds
+    stq = pol[0]
+    mk = SC.mod_kind[sc]
+    Pm = SC.mod_P[sc]
+    Rb, Tb = _bsdf_albedo(mk, Pm, line, cos_i)
+    if SC.mod_slab[sc] == 1:
+        # a slab model is the whole interaction; its own sampling includes the direct beam
+        R = 0.0
+        T = 0.0
+        diffuse = Rb + Tb
+        if nee:
+            T = _bsdf_direct(mk, Pm, line, cos_i)
+        if F_REFRACT and it == IF_FRESNEL and MD.n[m1, line] != MD.n[m2, line]:
+            # a slab on a boundary between two media (atmosphere shells): Fresnel reflection at the boundary
+            # first, the slab takes the rest
+            if F_POLAR:
+                Rf = Ar + Br * stq
+            else:
+                Rf = fresnel_unpolarized(cos_i, MD.n[m1, line], MD.n[m2, line])
+            R = Rf
+            T *= 1.0 - Rf
+            diffuse *= 1.0 - Rf
+    else:
+        rho = min(1.0, Rb + Tb)
+        R *= (1.0 - rho)
+        T *= (1.0 - rho)
+        diffuse = rho
+    # rays sent toward the target (next-event estimation), exact weights
+    if F_IMPORTANCE and sc_tgt >= 0 and not nee and not ev_nee:
+        sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, 0, mk, Pm, sc_tgt, sc_n, w, nee_cut,
+                                 o_bc, o_br, pos, d, nv, pol, o, j, opl, sx0, sy0, hist, H)
+    if nee:
+        diffuse = 0.0      # rays aimed at a target follow only the specular parts
+    return R, T, diffuse, mk, Pm, sp, npath
+
+
+@numba.njit(cache=True, inline="always")
+def _specular_turn(led, c, line, o, reflect, w, tot, ci, nw, d, pol, mueller, it, o_pol, MD, m12, nee, flags, excl):
+    """The specular part chosen at a hit on object o: a mirror reflection, or a transmission (Snell refraction
+    across an index step); the weight becomes w (R + T + diffuse) and the absorbed share is booked.  A polarized
+    trace's Stokes state (q, u, v) goes through the interface's Mueller coefficients (mueller: Ar, Br, xr, yr
+    for reflection, At, Bt, xt, yt for transmission, as _specular gives them).  Returns (w, d (3), q, u, v,
+    flags, excl, event kind)."""
+    nwx, nwy, nwz = nw
+    dx, dy, dz = d
+    stq, stu, stv = pol
+    Ar, Br, xr, yr, At, Bt, xt, yt = mueller
+    if reflect:
+        led[c, o, C_REF, line] += w * tot
+        led[c, o, C_ABS, line] += w * (1.0 - tot)
+        w *= tot
+        dx = dx + 2.0 * ci * nwx
+        dy = dy + 2.0 * ci * nwy
+        dz = dz + 2.0 * ci * nwz
+        flags |= FL_REFLECTED
+        evkind = EV_R
+        excl = -1
+        if F_POLAR:
+            if it == IF_FRESNEL or it == IF_METAL or it == IF_SPLIT:
+                _f, stq, stu, stv = diattenuate(stq, stu, stv, Ar, Br, xr, yr)
+            else:
+                stu = -stu      # INTERFACE REFLECT: a perfect mirror, Rs = Rp = 1, no
+                stv = -stv      # retardance (Jones diag(1, -1) in the frames s, d x s)
+    else:
+        led[c, o, C_TRA, line] += w * tot
+        led[c, o, C_ABS, line] += w * (1.0 - tot)
+        w *= tot
+        flags |= FL_TRANSMITTED
+        evkind = EV_T
+        if F_POLAR:
+            if it == IF_FRESNEL:
+                _f, stq, stu, stv = diattenuate(stq, stu, stv, At, Bt, xt, 0.0)
+            elif it == IF_SPLIT:
+                _f, stq, stu, stv = diattenuate(stq, stu, stv, At, Bt, xt, yt)
+            elif it == IF_POLARIZER:
+                stq = 1.0
+                stu = 0.0
+                stv = 0.0
+            elif it == IF_RETARDER:
+                cd = math.cos(o_pol[o, 1])
+                sd = math.sin(o_pol[o, 1])
+                stu, stv = stu * cd - stv * sd, stu * sd + stv * cd
+        if F_REFRACT and it >= IF_SPLIT:
+            m1, m2 = m12
+            n1 = MD.n[m1, line]
+            n2 = MD.n[m2, line]
+            # rays aimed at a target cross weak index steps (gas layers) straight: their bending
+            # (< NEE_STRAIGHT_DN tan(incidence)) would make them miss a target a few picoradians wide
+            # (docs/tracer.md)
+            if n1 != n2 and not (nee and abs(n1 - n2) < NEE_STRAIGHT_DN):
+                dx, dy, dz, _tir = refract(dx, dy, dz, nwx, nwy, nwz, n1, n2)
+                excl = -1
+    return w, dx, dy, dz, stq, stu, stv, flags, excl, evkind
+
+
+@numba.njit(cache=True, inline="always")
+def _diffuse_scatter(stack, sp, npath, led, c, r_lost, key, line, MD, mk, Pm, spec, geo, nw, nv, wts, pos, d, pol,
+                     opl, sx0, sy0, hist, H, state):
+    """The diffuse part chosen at a hit: the model's own sampling (a slab's unscattered beam refracts at a shell's
+    boundary); RAYS n without TOWARD splits into n paths, the first continuing here and the others pushed on the
+    stack (no split once the source ray has MAX_PATHS paths or the stack has no room for the extra ones: going on
+    as one ray is just as unbiased, and loses nothing).  spec (RAYS n, TOWARD target), geo (object, surface,
+    interface, m1, m2), nw and nv (the normal and the normal on the incoming side), wts (w, w0, R + T + diffuse,
+    diffuse), state (flags, excl).  Books the scattered, unscattered and absorbed flux.  Returns (w, w0, d (3),
+    Stokes state (6), flags, excl, event kind, sp, npath)."""
+    seed, i, ev, path = key
+    sc_n, sc_tgt = spec
+    o, j, it, m1, m2 = geo
+    nwx, nwy, nwz = nw
+    nvx, nvy, nvz = nv
+    w, w0, tot, diffuse = wts
+    phx, phy, phz, plx, ply, plz = pos
+    dx, dy, dz = d
+    stq, stu, stv, ex, ey, ez = pol
+    flags, excl = state
+    nsplit = sc_n if sc_tgt < 0 and npath < MAX_PATHS and sp + sc_n <= SMAX + 1 else 1
+    wi_x = -dx
+    wi_y = -dy
+    wi_z = -dz
+    wout = 0.0
+    wdelta = 0.0
+    fq = fu = fv = fex = fey = fez = 0.0
+    w_first = 0.0
+    first_delta = False
+    for q in range(nsplit):
+        v0, v1 = uniform2(seed, i, ev, path * 64 + 1 + 2 * q)
+        v2, _v = uniform2(seed, i, ev, path * 64 + 2 + 2 * q)
+        sx, sy, sz, sw, sdelta = _bsdf_sample(mk, Pm, line, wi_x, wi_y, wi_z, nvx, nvy, nvz, v0, v1, v2)
+        if F_REFRACT and sdelta and it == IF_FRESNEL and MD.n[m1, line] != MD.n[m2, line]:
+            # a slab's unscattered beam crosses the boundary: Snell refraction
+            sx, sy, sz, _tir = refract(sx, sy, sz, nwx, nwy, nwz, MD.n[m1, line], MD.n[m2, line])
+        cw = w * sw * tot / diffuse / nsplit
+        nq = stq
+        nu = stu
+        nv_ = stv
+        nex = ney = nez = 0.0
+        if F_POLAR:
+            if sdelta:      # a slab's unscattered beam keeps its state
+                nex, ney, nez = frame(sx, sy, sz, ex, ey, ez)
+            else:           # the model's Mueller matrix (depolarizing unless it has one)
+                pf, nq, nu, nv_, nex, ney, nez = _bsdf_mueller(mk, Pm, line, wi_x, wi_y, wi_z, sx, sy, sz, nvx, nvy,
+                                                               nvz, stq, stu, stv, ex, ey, ez)
+                cw *= pf
+        wout += cw
+        if sdelta:
+            wdelta += cw
+        if q == 0:
+            dx = sx
+            dy = sy
+            dz = sz
+            w_first = cw
+            first_delta = sdelta
+            fq = nq
+            fu = nu
+            fv = nv_
+            fex = nex
+            fey = ney
+            fez = nez
+        elif cw > 0.0 and sp < SMAX:
+            if F_HISTORY and ev - 1 < H:
+                hist[ev - 1] = o * 8 + EV_S
+            _push(stack, sp, phx, phy, phz, plx, ply, plz, sx, sy, sz, cw, w0 / nsplit, ev, sc_tgt, 0.0, npath,
+                  flags | FL_SCATTERED, j, opl, sx0, sy0, hist, H, nq, nu, nv_, nex, ney, nez)
+            sp += 1
+            npath += 1
+        elif cw > 0.0:
+            led[c, r_lost, C_ABS, line] += cw   # no room on the stack: counted as lost
+    led[c, o, C_SCA, line] += wout - wdelta
+    led[c, o, C_TRA, line] += wdelta     # a slab's unscattered beam
+    led[c, o, C_ABS, line] += w - wout
+    w = w_first
+    w0 = w0 / nsplit
+    if F_POLAR:
+        stq = fq
+        stu = fu
+        stv = fv
+        ex = fex
+        ey = fey
+        ez = fez
+    if first_delta:
+        flags |= FL_TRANSMITTED
+        evkind = EV_T
+    else:
+        flags |= FL_SCATTERED
+        evkind = EV_S
+        excl = sc_tgt
+    # a model's sample is made unit here (a reflection off a unit normal and `refract`, which normalizes, keep
+    # |d| = 1 to rounding: 1e-16 per event, not renormalized)
+    dd2 = dx * dx + dy * dy + dz * dz
+    if dd2 > 0.0 and dd2 != 1.0:
+        g = 1.0 / math.sqrt(dd2)
+        dx *= g
+        dy *= g
+        dz *= g
+    if F_POLAR:
+        ex, ey, ez = frame(dx, dy, dz, ex, ey, ez)
+    return w, w0, dx, dy, dz, stq, stu, stv, ex, ey, ez, flags, excl, evkind, sp, npath
 
 
 @numba.njit(cache=True, inline="always")
@@ -1133,57 +1486,14 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                     m1 = o_front[o] if front else o_back[o]
                     m2 = o_back[o] if front else o_front[o]
                     if F_VOLUME and it >= IF_SPLIT and med_sig[m1, line] > 0.0:
-                        sig = med_sig[m1, line]
-                        rm = med_row[m1]
-                        if nee:
-                            keep = math.exp(-sig * t)      # rays aimed at a target are only attenuated
-                            led[c, rm, C_INC, line] += w
-                            led[c, rm, C_ABS, line] += w * (1.0 - keep)
-                            led[c, rm, C_TRA, line] += w * keep
-                            w *= keep
-                        else:
-                            uf, ua = uniform2(seed, i, ev, path * 64 + 60)
-                            sdist = -math.log(uf) / sig
-                            if sdist < t:
-                                # a scattering event inside the volume, before the surface
-                                opl += med_n[m1, line] * sdist
-                                phx, plx = _adv(phx, plx, sdist, dx)
-                                phy, ply = _adv(phy, ply, sdist, dy)
-                                phz, plz = _adv(phz, plz, sdist, dz)
-                                alb = med_alb[m1, line]
-                                led[c, rm, C_INC, line] += w
-                                led[c, rm, C_SCA, line] += w * alb
-                                led[c, rm, C_ABS, line] += w * (1.0 - alb)
-                                w *= alb
-                                ev += 1
-                                if F_POLAR:
-                                    ex, ey, ez = frame(dx, dy, dz, ex, ey, ez)
-                                pk = med_phase[m1]
-                                gg = med_g[m1, line]
-                                gam = med_depol[m1] / (2.0 - med_depol[m1])
-                                tgt = med_tgt[m1]
-                                if F_IMPORTANCE and tgt >= 0:
-                                    sp, npath = _volume_toward(stack, sp, npath, led, c, r_imp, line,
-                                                               (seed, i, ev, path), med_nee[m1], pk, gg, gam,
-                                                               med_depol[m1], tgt, w, nee_cut, o_bc, o_br,
-                                                               (phx, phy, phz, plx, ply, plz), (dx, dy, dz),
-                                                               (stq, stu, stv, ex, ey, ez), opl, sx0, sy0, hist, H)
-                                v0, v1 = uniform2(seed, i, ev, path * 64 + 61)
-                                dx, dy, dz, ex, ey, ez, stq, stu, stv = _phase_turn(pk, gg, gam, med_depol[m1], v0, v1, dx,
-                                                                                    dy, dz, ex, ey, ez, stq, stu, stv)
-                                excl = tgt
-                                jlast = -1
-                                flags |= FL_SCATTERED
-                                if F_HISTORY and ev - 1 < H:
-                                    hist[ev - 1] = -2      # a volume event
-                                # roulette on the volume path too
-                                if w > 0.0 and w < halt * w0:
-                                    ur, _u = uniform2(seed, i, ev, path * 64 + 62)
-                                    w, booked = _roulette(w, w0, halt, ur)
-                                    led[c, r_halt, C_ABS, line] += booked
-                                    if w == 0.0:
-                                        flags |= FL_HALTED
-                                continue
+                        # a scattering medium: attenuation, or a scattering event before the surface
+                        (scattered, w, phx, phy, phz, plx, ply, plz, dx, dy, dz, stq, stu, stv, ex, ey, ez, opl, ev,
+                         excl, jlast, flags, sp, npath) = _volume_event(
+                            stack, sp, npath, led, c, (r_imp, r_halt), (seed, i, path), line, MD, m1, t, w, w0,
+                            (halt, nee_cut), nee, o_bc, o_br, (phx, phy, phz, plx, ply, plz), (dx, dy, dz),
+                            (stq, stu, stv, ex, ey, ez), opl, sx0, sy0, hist, H, (ev, excl, jlast, flags))
+                        if scattered:
+                            continue
                     if F_ABSORB_MEDIA and it >= IF_SPLIT:
                         a = med_alpha[m1, line]
                         if a > 0.0:
@@ -1235,17 +1545,7 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                     scf = o_sc_first[o]
                     scn = o_sc_cnt[o]
                     if F_MAPS and scn > 0 and sp_kind[scf] == SPEC_GATE:
-                        # OPAQUE WHERE: the object is present (opaque: its models, the rest absorbed) where its
-                        # gate map is 1, and clear air elsewhere (its TRANSMIT interface, no scattering)
-                        glat, glon = geodetic(lx, ly, lz)
-                        gm = sp_map[scf]
-                        scf += 1
-                        scn -= 1
-                        if map_value(map_data, map_off[gm], map_nlat[gm], map_nlon[gm], glat, glon) > 0.5:
-                            R = 0.0
-                            T = 0.0
-                        else:
-                            scn = 0
+                        R, T, scf, scn = _gate(SC, scf, scn, lx, ly, lz, R, T)
                     # which scatter model applies here: an object's SCATTER specs, tried in order
                     mk = 0
                     sc, sc_n, sc_tgt = _scatter_spec(SC, scf, scn, lx, ly, lz, seed, i, ev, path)
@@ -1254,87 +1554,18 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                     nvz = nwz if front else -nwz
                     cos_i = abs(ci)
                     diffuse = 0.0
-                    # expected-value next-event estimation over a fraction map's choice: every model this hit may
-                    # use sends its rays toward its target, weighted by the probability that the hit uses it; the
-                    # random choice above still decides the path's continuation, which then sends none.  The
-                    # same expectation, without the variance of the choice (a partly cloudy pixel: cloud or not)
-                    ev_nee = False
-                    if F_MAPS and F_IMPORTANCE and not nee and scn > 0:
-                        for qq in range(scn):
-                            if sp_kind[scf + qq] == SPEC_FRACTION_MAP:
-                                ev_nee = True
-                                break
-                    if F_MAPS and F_IMPORTANCE and ev_nee:
-                        preach = 1.0
-                        kc = 0
-                        for qq in range(scn):
-                            spn = scf + qq
-                            kd = sp_kind[spn]
-                            pmix = preach
-                            mq = -1
-                            if kd != SPEC_MODEL:
-                                lat, lon = geodetic(lx, ly, lz)
-                                mp = sp_map[spn]
-                                vq = map_value(map_data, map_off[mp], map_nlat[mp], map_nlon[mp], lat, lon)
-                                if kd == SPEC_CLASS_MAP:
-                                    cl = int(vq)
-                                    if cl >= 0 and cl < sp_cls_n[spn]:
-                                        mq = cls_models[sp_cls_off[spn] + cl]
-                                    preach = 0.0
-                                else:
-                                    vq = min(max(vq, 0.0), 1.0)
-                                    pmix = preach * vq
-                                    mq = sp_model[spn]
-                                    preach *= 1.0 - vq
-                            else:
-                                mq = sp_model[spn]
-                                preach = 0.0
-                            tq = sp_tgt[spn]
-                            if mq >= 0 and tq >= 0 and pmix > 0.0:
-                                nr = sp_rays[spn]
-                                sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, (seed, i, ev, path),
-                                                         kc, mod_kind[mq], mod_P[mq], tq, nr, w * pmix, nee_cut, o_bc,
-                                                         o_br, (phx, phy, phz, plx, ply, plz), (dx, dy, dz),
-                                                         (nvx, nvy, nvz), (stq, stu, stv, ex, ey, ez), o, j, opl, sx0,
-                                                         sy0, hist, H)
-                                kc += nr
-                            if preach <= 0.0:
-                                break
+                    # a fraction map's models all send their rays toward their targets (expected value)
+                    ev_nee, sp, npath = _map_nee(stack, sp, npath, led, c, r_imp, (seed, i, ev, path), line, SC, scf,
+                                                 scn, nee, w, nee_cut, o_bc, o_br, (lx, ly, lz),
+                                                 (phx, phy, phz, plx, ply, plz), (dx, dy, dz), (nvx, nvy, nvz),
+                                                 (stq, stu, stv, ex, ey, ez), o, j, opl, sx0, sy0, hist, H)
                     if F_SCATTER and sc >= 0:
-                        mk = mod_kind[sc]
-                        Pm = mod_P[sc]
-                        Rb, Tb = _bsdf_albedo(mk, Pm, line, cos_i)
-                        if mod_slab[sc] == 1:
-                            # a slab model is the whole interaction; its own sampling includes the direct beam
-                            R = 0.0
-                            T = 0.0
-                            diffuse = Rb + Tb
-                            if nee:
-                                T = _bsdf_direct(mk, Pm, line, cos_i)
-                            if F_REFRACT and it == IF_FRESNEL and med_n[m1, line] != med_n[m2, line]:
-                                # a slab on a boundary between two media (atmosphere shells): Fresnel
-                                # reflection at the boundary first, the slab takes the rest
-                                if F_POLAR:
-                                    Rf = Ar + Br * stq
-                                else:
-                                    Rf = fresnel_unpolarized(cos_i, med_n[m1, line], med_n[m2, line])
-                                R = Rf
-                                T *= 1.0 - Rf
-                                diffuse *= 1.0 - Rf
-                        else:
-                            rho = min(1.0, Rb + Tb)
-                            R *= (1.0 - rho)
-                            T *= (1.0 - rho)
-                            diffuse = rho
-                        # rays sent toward the target (next-event estimation), exact weights
-                        tgt = sc_tgt
-                        if F_IMPORTANCE and tgt >= 0 and not nee and not ev_nee:
-                            sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, (seed, i, ev, path), 0,
-                                                     mk, Pm, tgt, sc_n, w, nee_cut, o_bc, o_br,
-                                                     (phx, phy, phz, plx, ply, plz), (dx, dy, dz), (nvx, nvy, nvz),
-                                                     (stq, stu, stv, ex, ey, ez), o, j, opl, sx0, sy0, hist, H)
-                        if nee:
-                            diffuse = 0.0      # rays aimed at a target follow only the specular parts
+                        # the model's share of the light (R, T and diffuse), and its rays toward its target
+                        R, T, diffuse, mk, Pm, sp, npath = _model_split(
+                            stack, sp, npath, led, c, r_imp, (seed, i, ev, path), line, SC, MD, (sc, sc_n, sc_tgt),
+                            (o, j, it, m1, m2), (R, T, Ar, Br), cos_i, (nee, ev_nee), w, nee_cut, (o_bc, o_br),
+                            (phx, phy, phz, plx, ply, plz), (dx, dy, dz), (nvx, nvy, nvz),
+                            (stq, stu, stv, ex, ey, ez), opl, sx0, sy0, hist, H)
                     tot = R + T + diffuse
                     if tot <= 0.0:
                         led[c, o, C_ABS, line] += w
@@ -1343,139 +1574,18 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                         u, _u = uniform2(seed, i, ev, path * 64) if (R > 0.0) + (T > 0.0) + (diffuse > 0.0) > 1 \
                             else (0.5, 0.5)
                         x_ = u * tot
-                        if x_ < R:
-                            led[c, o, C_REF, line] += w * tot
-                            led[c, o, C_ABS, line] += w * (1.0 - tot)
-                            w *= tot
-                            dx = dx + 2.0 * ci * nwx
-                            dy = dy + 2.0 * ci * nwy
-                            dz = dz + 2.0 * ci * nwz
-                            flags |= FL_REFLECTED
-                            evkind = EV_R
-                            excl = -1
-                            if F_POLAR:
-                                if it == IF_FRESNEL or it == IF_METAL or it == IF_SPLIT:
-                                    _f, stq, stu, stv = diattenuate(stq, stu, stv, Ar, Br, xr, yr)
-                                else:
-                                    stu = -stu      # INTERFACE REFLECT: a perfect mirror, Rs = Rp = 1, no
-                                    stv = -stv      # retardance (Jones diag(1, -1) in the frames s, d x s)
-                        elif x_ < R + T:
-                            led[c, o, C_TRA, line] += w * tot
-                            led[c, o, C_ABS, line] += w * (1.0 - tot)
-                            w *= tot
-                            flags |= FL_TRANSMITTED
-                            evkind = EV_T
-                            if F_POLAR:
-                                if it == IF_FRESNEL:
-                                    _f, stq, stu, stv = diattenuate(stq, stu, stv, At, Bt, xt, 0.0)
-                                elif it == IF_SPLIT:
-                                    _f, stq, stu, stv = diattenuate(stq, stu, stv, At, Bt, xt, yt)
-                                elif it == IF_POLARIZER:
-                                    stq = 1.0
-                                    stu = 0.0
-                                    stv = 0.0
-                                elif it == IF_RETARDER:
-                                    cd = math.cos(o_pol[o, 1])
-                                    sd = math.sin(o_pol[o, 1])
-                                    stu, stv = stu * cd - stv * sd, stu * sd + stv * cd
-                            if F_REFRACT and it >= IF_SPLIT:
-                                n1 = med_n[m1, line]
-                                n2 = med_n[m2, line]
-                                # rays aimed at a target cross weak index steps (gas layers) straight: their
-                                # bending (< NEE_STRAIGHT_DN tan(incidence)) would make them miss a target
-                                # a few picoradians wide (docs/tracer.md)
-                                if n1 != n2 and not (nee and abs(n1 - n2) < NEE_STRAIGHT_DN):
-                                    dx, dy, dz, _tir = refract(dx, dy, dz, nwx, nwy, nwz, n1, n2)
-                                    excl = -1
+                        if x_ < R + T:
+                            w, dx, dy, dz, stq, stu, stv, flags, excl, evkind = _specular_turn(
+                                led, c, line, o, x_ < R, w, tot, ci, (nwx, nwy, nwz), (dx, dy, dz), (stq, stu, stv),
+                                (Ar, Br, xr, yr, At, Bt, xt, yt), it, o_pol, MD, (m1, m2), nee, flags, excl)
                         else:
-                            # diffuse scattering: the model's own sampling; RAYS n without TOWARD splits
-                            # (no split once the source ray has MAX_PATHS paths or the stack has no room
-                            # for the extra ones: going on as one ray is just as unbiased, and loses nothing)
-                            nsplit = sc_n if sc_tgt < 0 and npath < MAX_PATHS and sp + sc_n <= SMAX + 1 else 1
-                            wi_x = -dx
-                            wi_y = -dy
-                            wi_z = -dz
-                            wout = 0.0
-                            wdelta = 0.0
-                            fq = fu = fv = fex = fey = fez = 0.0
-                            w_first = 0.0
-                            first_delta = False
-                            for q in range(nsplit):
-                                v0, v1 = uniform2(seed, i, ev, path * 64 + 1 + 2 * q)
-                                v2, _v = uniform2(seed, i, ev, path * 64 + 2 + 2 * q)
-                                sx, sy, sz, sw, sdelta = _bsdf_sample(mk, Pm, line, wi_x, wi_y, wi_z, nvx, nvy, nvz,
-                                                                      v0, v1, v2)
-                                if F_REFRACT and sdelta and it == IF_FRESNEL and med_n[m1, line] != med_n[m2, line]:
-                                    # a slab's unscattered beam crosses the boundary: Snell refraction
-                                    sx, sy, sz, _tir = refract(sx, sy, sz, nwx, nwy, nwz, med_n[m1, line],
-                                                               med_n[m2, line])
-                                cw = w * sw * tot / diffuse / nsplit
-                                nq = stq
-                                nu = stu
-                                nv = stv
-                                nex = ney = nez = 0.0
-                                if F_POLAR:
-                                    if sdelta:      # a slab's unscattered beam keeps its state
-                                        nex, ney, nez = frame(sx, sy, sz, ex, ey, ez)
-                                    else:           # the model's Mueller matrix (depolarizing unless it has one)
-                                        pf, nq, nu, nv, nex, ney, nez = _bsdf_mueller(
-                                            mk, Pm, line, wi_x, wi_y, wi_z, sx, sy, sz, nvx, nvy, nvz, stq, stu, stv,
-                                            ex, ey, ez)
-                                        cw *= pf
-                                wout += cw
-                                if sdelta:
-                                    wdelta += cw
-                                if q == 0:
-                                    dx = sx
-                                    dy = sy
-                                    dz = sz
-                                    w_first = cw
-                                    first_delta = sdelta
-                                    fq = nq
-                                    fu = nu
-                                    fv = nv
-                                    fex = nex
-                                    fey = ney
-                                    fez = nez
-                                elif cw > 0.0 and sp < SMAX:
-                                    if F_HISTORY and ev - 1 < H:
-                                        hist[ev - 1] = o * 8 + EV_S
-                                    _push(stack, sp, phx, phy, phz, plx, ply, plz, sx, sy, sz, cw, w0 / nsplit, ev,
-                                          sc_tgt, 0.0, npath, flags | FL_SCATTERED, j, opl, sx0, sy0, hist, H,
-                                          nq, nu, nv, nex, ney, nez)
-                                    sp += 1
-                                    npath += 1
-                                elif cw > 0.0:
-                                    led[c, r_lost, C_ABS, line] += cw   # no room on the stack: counted as lost
-                            led[c, o, C_SCA, line] += wout - wdelta
-                            led[c, o, C_TRA, line] += wdelta     # a slab's unscattered beam
-                            led[c, o, C_ABS, line] += w - wout
-                            w = w_first
-                            w0 = w0 / nsplit
-                            if F_POLAR:
-                                stq = fq
-                                stu = fu
-                                stv = fv
-                                ex = fex
-                                ey = fey
-                                ez = fez
-                            if first_delta:
-                                flags |= FL_TRANSMITTED
-                                evkind = EV_T
-                            else:
-                                flags |= FL_SCATTERED
-                                evkind = EV_S
-                                excl = sc_tgt
-                            # a model's sample is made unit here (a reflection off a unit normal and `refract`,
-                            # which normalizes, keep |d| = 1 to rounding: 1e-16 per event, not renormalized)
-                            m2 = dx * dx + dy * dy + dz * dz
-                            if m2 > 0.0 and m2 != 1.0:
-                                g = 1.0 / math.sqrt(m2)
-                                dx *= g
-                                dy *= g
-                                dz *= g
-                            if F_POLAR:
-                                ex, ey, ez = frame(dx, dy, dz, ex, ey, ez)
+                            (w, w0, dx, dy, dz, stq, stu, stv, ex, ey, ez, flags, excl, evkind, sp,
+                             npath) = _diffuse_scatter(stack, sp, npath, led, c, r_lost, (seed, i, ev, path), line, MD,
+                                                       mk, Pm, (sc_n, sc_tgt), (o, j, it, m1, m2), (nwx, nwy, nwz),
+                                                       (nvx, nvy, nvz), (w, w0, tot, diffuse),
+                                                       (phx, phy, phz, plx, ply, plz), (dx, dy, dz),
+                                                       (stq, stu, stv, ex, ey, ez), opl, sx0, sy0, hist, H,
+                                                       (flags, excl))
                     if F_HISTORY and ev - 1 < H:
                         hist[ev - 1] = o * 8 + evkind
                     jlast = j      # the surface just left: its departure root is dropped on the next search
