@@ -43,7 +43,8 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     r.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                    help="set a variable before the script runs (the script's DEFAULT NAME VALUE keeps it); repeatable")
     r.add_argument("--seed", type=_seed, metavar="N",
-                   help="random seed for every TRACE, in place of the script's SEED (recorded in the manifest)")
+                   help="random seed of the first TRACE, in place of the script's SEED; later ones keep their "
+                        "SEED's offset from it (recorded in the manifest)")
     pq = r.add_mutually_exclusive_group()
     pq.add_argument("--quiet", action="store_true", help="no progress display")
     pq.add_argument("--progress", action="store_true",

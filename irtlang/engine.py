@@ -109,7 +109,19 @@ class Engine:
         self.rays_traced = 0
         self._saved_from = {}   # resolved path of a SAVE RAYS file -> (the result and scene it was saved from)
         self.collector = None   # irtlang.io.results.ResultsCollector: every image, spectrum and ledger (results.nc)
-        self.seed = None        # irt run --seed N: every TRACE uses N in place of the script's SEED
+        self.seed = None        # irt run --seed N: the first TRACE's seed (trace_seed)
+        self._seed0 = None      # the script's SEED at the first TRACE (with --seed)
+
+    def trace_seed(self, script_seed: int) -> int:
+        """The seed a TRACE uses: the script's SEED, or with irt run --seed N, N plus the script's SEED's offset
+        from the one its first TRACE used.  A script with one SEED (most) traces with N; a script that moves its
+        SEED between traces (the flagship: a seed per hourly frame, so that the frames' errors are independent)
+        keeps its traces apart under --seed too."""
+        if self.seed is None:
+            return int(script_seed)
+        if self._seed0 is None:
+            self._seed0 = int(script_seed)
+        return (self.seed + int(script_seed) - self._seed0) % (1 << 63)
 
     # ------------------------------------------------------------------ dispatch
     def run_step(self, step: M.Step, interp) -> None:
@@ -174,7 +186,7 @@ class Engine:
             self._trace_camera(step, sc, cam, interp)
             return
         try:
-            res = run_trace(sc, seed=sc.seed if self.seed is None else self.seed, level=p["level"], halt=p["halt"], until_error=p["until_error"],
+            res = run_trace(sc, seed=self.trace_seed(sc.seed), level=p["level"], halt=p["halt"], until_error=p["until_error"],
                             until_target=p["until_target"], records=self.need_records, history=self.need_history,
                             progress=self.progress, runner=self.runner)
         except MissingFeature as e:
@@ -230,7 +242,7 @@ class Engine:
         imgs, n_traced = [], 0
         for k, analyzer in enumerate(passes):
             csc, info = camera_scene(sc, cam, step.span, analyzer)
-            seed = csc.seed if self.seed is None else self.seed
+            seed = self.trace_seed(csc.seed)
             try:
                 res = run_trace(csc, seed=(seed + (k << 40)) % (1 << 63), level=p["level"], halt=p["halt"],
                                 records=False, history=False, progress=self.progress, runner=self.runner)

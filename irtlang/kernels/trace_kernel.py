@@ -998,13 +998,15 @@ def _volume_event(stack, sp, npath, led, c, rows, key, line, MD, m1, t, w, w0, c
 
 
 @numba.njit(cache=True, inline="always")
-def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, scf, scn, nee, w, nee_cut, o_bc, o_br, lpos, pos, d,
-             nv, pol, o, j, opl, sx0, sy0, hist, H):
+def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, MD, scf, scn, nee, w, nee_cut, bounds, fres, lpos, pos,
+             d, nv, pol, o, j, opl, sx0, sy0, hist, H):
     """Expected-value next-event estimation over a fraction map's choice: when the hit's SCATTER specs include a
     fraction map, every model the hit may use sends its rays toward its target, weighted by the probability that
     the hit uses it (the random choice in _scatter_spec still decides the path's continuation, which then sends
     none): the same expectation, without the variance of the choice (a partly cloudy pixel: cloud or not).
-    lpos: the hit in the surface's frame.  Returns (used, sp, npath)."""
+    A slab model on an index step (an atmosphere shell) sends w (1 - R_Fresnel), as in _model_split.  bounds
+    (o_bc, o_br), fres (interface, m1, m2, cos_i, Ar, Br), lpos: the hit in the surface's frame.  Returns (used,
+    sp, npath)."""
     ev_nee = False
     if F_MAPS and F_IMPORTANCE and not nee and scn > 0:
         for qq in range(scn):
@@ -1013,6 +1015,14 @@ def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, scf, scn, nee, w, n
                 break
     if F_MAPS and F_IMPORTANCE and ev_nee:
         lx, ly, lz = lpos
+        o_bc, o_br = bounds
+        it, m1, m2, cos_i, Ar, Br = fres
+        keep = 1.0      # a slab's share behind the boundary's Fresnel reflection
+        if F_REFRACT and it == IF_FRESNEL and MD.n[m1, line] != MD.n[m2, line]:
+            if F_POLAR:
+                keep = 1.0 - (Ar + Br * pol[0])
+            else:
+                keep = 1.0 - fresnel_unpolarized(cos_i, MD.n[m1, line], MD.n[m2, line])
         preach = 1.0
         kc = 0
         for qq in range(scn):
@@ -1040,9 +1050,10 @@ def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, scf, scn, nee, w, n
             tq = SC.tgt[spn]
             if mq >= 0 and tq >= 0 and pmix > 0.0:
                 nr = SC.rays[spn]
+                wq = w * pmix * keep if SC.mod_slab[mq] == 1 else w * pmix
                 sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, kc, SC.mod_kind[mq],
-                                         SC.mod_P[mq], tq, nr, w * pmix, nee_cut, o_bc, o_br, pos, d, nv, pol, o, j,
-                                         opl, sx0, sy0, hist, H)
+                                         SC.mod_P[mq], tq, nr, wq, nee_cut, o_bc, o_br, pos, d, nv, pol, o, j, opl,
+                                         sx0, sy0, hist, H)
                 kc += nr
             if preach <= 0.0:
                 break
@@ -1054,10 +1065,12 @@ def _model_split(stack, sp, npath, led, c, r_imp, key, line, SC, MD, spec, geo, 
                  bounds, pos, d, nv, pol, opl, sx0, sy0, hist, H):
     """How a hit with scatter model spec = (model, RAYS n, TOWARD target) shares its light: the specular R and T
     that the model leaves, and its diffuse part (a slab model is the whole interaction, behind the boundary's
-    Fresnel reflection on a shell), and the model's rays toward its target (next-event estimation, exact weights;
-    not for a ray itself aimed at a target, nor where _map_nee sent them).  geo (object, surface, interface, m1,
-    m2), fres (R, T, Ar, Br), how (nee, ev_nee), bounds (o_bc, o_br).  Returns (R, T, diffuse, kind, P, sp,
-    npath)."""
+    Fresnel reflection on a shell), and the model's rays toward its target (next-event estimation, exact weights:
+    a slab's carry w (1 - R_Fresnel), the share that the sampled interaction scatters, which is 0 under total
+    internal reflection; not for a ray itself aimed at a target, nor where _map_nee sent them).  keep: that
+    share, which the sampled scattering's weights carry too (_diffuse_scatter).  geo (object, surface, interface, m1,
+    m2), fres (R, T, Ar, Br), how (nee, ev_nee), bounds (o_bc, o_br).  Returns (R, T, diffuse, keep, kind, P,
+    sp, npath)."""
     sc, sc_n, sc_tgt = spec
     o, j, it, m1, m2 = geo
     R, T, Ar, Br = fres
@@ -1067,6 +1080,8 @@ def _model_split(stack, sp, npath, led, c, r_imp, key, line, SC, MD, spec, geo, 
     mk = SC.mod_kind[sc]
     Pm = SC.mod_P[sc]
     Rb, Tb = _bsdf_albedo(mk, Pm, line, cos_i)
+    w_nee = w
+    keep = 1.0
     if SC.mod_slab[sc] == 1:
         # a slab model is the whole interaction; its own sampling includes the direct beam
         R = 0.0
@@ -1084,6 +1099,8 @@ def _model_split(stack, sp, npath, led, c, r_imp, key, line, SC, MD, spec, geo, 
             R = Rf
             T *= 1.0 - Rf
             diffuse *= 1.0 - Rf
+            keep = 1.0 - Rf             # the slab gets only what the boundary lets in: its sampled
+            w_nee = w * keep            # scattering (_diffuse_scatter) and its rays toward the target
     else:
         rho = min(1.0, Rb + Tb)
         R *= (1.0 - rho)
@@ -1091,11 +1108,11 @@ def _model_split(stack, sp, npath, led, c, r_imp, key, line, SC, MD, spec, geo, 
         diffuse = rho
     # rays sent toward the target (next-event estimation), exact weights
     if F_IMPORTANCE and sc_tgt >= 0 and not nee and not ev_nee:
-        sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, 0, mk, Pm, sc_tgt, sc_n, w, nee_cut,
-                                 o_bc, o_br, pos, d, nv, pol, o, j, opl, sx0, sy0, hist, H)
+        sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, 0, mk, Pm, sc_tgt, sc_n, w_nee,
+                                 nee_cut, o_bc, o_br, pos, d, nv, pol, o, j, opl, sx0, sy0, hist, H)
     if nee:
         diffuse = 0.0      # rays aimed at a target follow only the specular parts
-    return R, T, diffuse, mk, Pm, sp, npath
+    return R, T, diffuse, keep, mk, Pm, sp, npath
 
 
 @numba.njit(cache=True, inline="always")
@@ -1165,14 +1182,15 @@ def _diffuse_scatter(stack, sp, npath, led, c, r_lost, key, line, MD, mk, Pm, sp
     stack (no split once the source ray has MAX_PATHS paths or the stack has no room for the extra ones: going on
     as one ray is just as unbiased, and loses nothing).  spec (RAYS n, TOWARD target), geo (object, surface,
     interface, m1, m2), nw and nv (the normal and the normal on the incoming side), wts (w, w0, R + T + diffuse,
-    diffuse), state (flags, excl).  Books the scattered, unscattered and absorbed flux.  Returns (w, w0, d (3),
-    Stokes state (6), flags, excl, event kind, sp, npath)."""
+    diffuse, keep: the share of a slab model on an index step behind the boundary's Fresnel reflection, else 1),
+    state (flags, excl).  Books the scattered, unscattered and absorbed flux.  Returns (w, w0, d (3), Stokes
+    state (6), flags, excl, event kind, sp, npath)."""
     seed, i, ev, path = key
     sc_n, sc_tgt = spec
     o, j, it, m1, m2 = geo
     nwx, nwy, nwz = nw
     nvx, nvy, nvz = nv
-    w, w0, tot, diffuse = wts
+    w, w0, tot, diffuse, keep = wts
     phx, phy, phz, plx, ply, plz = pos
     dx, dy, dz = d
     stq, stu, stv, ex, ey, ez = pol
@@ -1194,6 +1212,8 @@ def _diffuse_scatter(stack, sp, npath, led, c, r_lost, key, line, MD, mk, Pm, sp
             # a slab's unscattered beam crosses the boundary: Snell refraction
             sx, sy, sz, _tir = refract(sx, sy, sz, nwx, nwy, nwz, MD.n[m1, line], MD.n[m2, line])
         cw = w * sw * tot / diffuse / nsplit
+        if keep != 1.0:
+            cw *= keep      # a slab on an index step: diffuse = (its albedo) keep, its samples' weights too
         nq = stq
         nu = stu
         nv_ = stv
@@ -1554,14 +1574,16 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                     nvz = nwz if front else -nwz
                     cos_i = abs(ci)
                     diffuse = 0.0
+                    slab_keep = 1.0
                     # a fraction map's models all send their rays toward their targets (expected value)
-                    ev_nee, sp, npath = _map_nee(stack, sp, npath, led, c, r_imp, (seed, i, ev, path), line, SC, scf,
-                                                 scn, nee, w, nee_cut, o_bc, o_br, (lx, ly, lz),
+                    ev_nee, sp, npath = _map_nee(stack, sp, npath, led, c, r_imp, (seed, i, ev, path), line, SC, MD,
+                                                 scf, scn, nee, w, nee_cut, (o_bc, o_br),
+                                                 (it, m1, m2, cos_i, Ar, Br), (lx, ly, lz),
                                                  (phx, phy, phz, plx, ply, plz), (dx, dy, dz), (nvx, nvy, nvz),
                                                  (stq, stu, stv, ex, ey, ez), o, j, opl, sx0, sy0, hist, H)
                     if F_SCATTER and sc >= 0:
                         # the model's share of the light (R, T and diffuse), and its rays toward its target
-                        R, T, diffuse, mk, Pm, sp, npath = _model_split(
+                        R, T, diffuse, slab_keep, mk, Pm, sp, npath = _model_split(
                             stack, sp, npath, led, c, r_imp, (seed, i, ev, path), line, SC, MD, (sc, sc_n, sc_tgt),
                             (o, j, it, m1, m2), (R, T, Ar, Br), cos_i, (nee, ev_nee), w, nee_cut, (o_bc, o_br),
                             (phx, phy, phz, plx, ply, plz), (dx, dy, dz), (nvx, nvy, nvz),
@@ -1582,7 +1604,7 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                             (w, w0, dx, dy, dz, stq, stu, stv, ex, ey, ez, flags, excl, evkind, sp,
                              npath) = _diffuse_scatter(stack, sp, npath, led, c, r_lost, (seed, i, ev, path), line, MD,
                                                        mk, Pm, (sc_n, sc_tgt), (o, j, it, m1, m2), (nwx, nwy, nwz),
-                                                       (nvx, nvy, nvz), (w, w0, tot, diffuse),
+                                                       (nvx, nvy, nvz), (w, w0, tot, diffuse, slab_keep),
                                                        (phx, phy, phz, plx, ply, plz), (dx, dy, dz),
                                                        (stq, stu, stv, ex, ey, ez), opl, sx0, sy0, hist, H,
                                                        (flags, excl))

@@ -85,6 +85,21 @@ def test_seed_override_equals_the_script_seed(runs):
     assert runs.res7.manifest["seed"] == 7 and "seed_from" not in runs.res7.manifest
 
 
+
+def test_seed_override_keeps_a_script_s_seeds_apart(tmp_path):
+    """A script that moves its SEED between traces (the flagship: a seed per hourly frame) keeps them apart
+    under --seed N: the first TRACE uses N, a later one N plus its SEED's offset from the first's.  So with
+    --seed 11, SEED 7 then SEED 8 trace as SEED 11 then SEED 12 would."""
+    two = SCRIPT.replace("EXPORT fpa 'fpa.npy'", "EXPORT fpa 'fpa.npy'\nSEED 8\nGRID DISK Z 500 100 RAYS 2000 RANDOM\n"
+                         "SOURCE DIRECTION 0.001 0 -1\nTRACE\nEXPORT fpa 'fpa2.npy'")
+    (tmp_path / "two.inr").write_text(two)
+    (tmp_path / "ref.inr").write_text(two.replace("SEED 7", "SEED 11").replace("SEED 8", "SEED 12"))
+    got = irtlang.run(tmp_path / "two.inr", seed=11, out=tmp_path / "got")
+    ref = irtlang.run(tmp_path / "ref.inr", out=tmp_path / "ref")
+    for f in ("fpa.npy", "fpa2.npy"):
+        np.testing.assert_array_equal(np.load(got.files[f]), np.load(ref.files[f]))
+    assert not np.array_equal(np.load(got.files["fpa.npy"]), np.load(got.files["fpa2.npy"]))
+
 def test_results_nc_is_cf_with_units_errors_and_provenance(runs):
     xr = pytest.importorskip("xarray")
     netCDF4 = pytest.importorskip("netCDF4")
