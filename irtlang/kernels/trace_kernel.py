@@ -1065,12 +1065,12 @@ def _model_split(stack, sp, npath, led, c, r_imp, key, line, SC, MD, spec, geo, 
                  bounds, pos, d, nv, pol, opl, sx0, sy0, hist, H):
     """How a hit with scatter model spec = (model, RAYS n, TOWARD target) shares its light: the specular R and T
     that the model leaves, and its diffuse part (a slab model is the whole interaction, behind the boundary's
-    Fresnel reflection on a shell), and the model's rays toward its target (next-event estimation, exact weights:
-    a slab's carry w (1 - R_Fresnel), the share that the sampled interaction scatters, which is 0 under total
-    internal reflection; not for a ray itself aimed at a target, nor where _map_nee sent them).  keep: that
-    share, which the sampled scattering's weights carry too (_diffuse_scatter).  geo (object, surface, interface, m1,
-    m2), fres (R, T, Ar, Br), how (nee, ev_nee), bounds (o_bc, o_br).  Returns (R, T, diffuse, keep, kind, P,
-    sp, npath)."""
+    Fresnel reflection on a shell), and the model's rays toward its target (next-event estimation, exact weights;
+    not for a ray itself aimed at a target, nor where _map_nee sent them).  A slab on an index step scatters
+    only the share keep = 1 - R_Fresnel (0 under total internal reflection): its rays toward the target carry
+    w keep, and its sampled scatterings' weights carry keep too (_diffuse_scatter).  geo (object, surface,
+    interface, m1, m2), fres (R, T, Ar, Br), how (nee, ev_nee), bounds (o_bc, o_br).  Returns (R, T, diffuse,
+    keep, kind, P, sp, npath)."""
     sc, sc_n, sc_tgt = spec
     o, j, it, m1, m2 = geo
     R, T, Ar, Br = fres
