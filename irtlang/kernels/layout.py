@@ -26,7 +26,8 @@ SF_TL = 28          # 3: its low part
 SF_SIZE = 31        # the characteristic size (the self-hit tolerance scales with it)
 SF_BS = 32          # 4: the local bounding sphere (centre, radius; inf: unbounded)
 SF_HOLE = 36        # 4: the central-hole cull of an ANNULUS: r_in'^2, z_lo, z_hi, d_max (compile.pack._hole_bounds)
-SF_N = 40
+SF_CL = 40          # 4: on the first surface of a cluster, the cluster's world bounding sphere (centre, radius)
+SF_N = 44
 #: int columns of ``Surfaces.i`` (n, SI_N)
 SI_KIND = 0         # the surface kind's code: its index in irtlang.plugins.surfaces.REGISTRY
 SI_NASPH = 1        # asphere terms in use
@@ -36,7 +37,8 @@ SI_OBJ = 4          # the object it belongs to
 SI_AXIS = 5         # 1: the rotation is exactly the identity (the kernel skips it)
 SI_FAM = 6          # nested-shell family (compile.pack.shell_families), -1: none
 SI_FIDX = 7         # the shell's index in its family
-SI_N = 8
+SI_CLEND = 8        # on the first surface of a cluster (compile.pack.surface_clusters), one past its last; else 0
+SI_N = 9
 #: ``Surfaces.mesh`` (meshes, 4) columns: BVH node offset and count, triangle offset and count
 MI_NODE_OFF, MI_NODE_N, MI_TRI_OFF, MI_TRI_N = range(4)
 

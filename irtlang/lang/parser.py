@@ -14,6 +14,7 @@ from lark import Lark, Token, Transformer, Tree, v_args
 from lark.exceptions import UnexpectedCharacters, UnexpectedInput, VisitError
 
 from . import ast as A
+from ..core import diskcache
 from ..core.diagnostics import IrtError, Source, Span, did_you_mean, error
 from ..core.units import UNITS, parse_qty_token
 
@@ -405,6 +406,20 @@ _FLAT_CACHE: OrderedDict = OrderedDict()
 _FLAT_CACHE_SIZE = 32
 
 
+DISK_CACHE_MIN_BYTES = 32768     # texts this large keep their parse on disk (the Earth's include files: 7 s)
+
+
+def _disk_key(name: str, text: str) -> str | None:
+    """The parse's key in the disk cache (irtlang.core.diskcache): the file's name and text and the code that
+    parses it (grammar, parser, AST, units, spans); None for small texts, which parse in milliseconds."""
+    if len(text) < DISK_CACHE_MIN_BYTES:
+        return None
+    here = Path(__file__).resolve()
+    code = diskcache.code_hash(str(here), str(here.with_name("ast.py")), str(here.parents[1] / "core" / "units.py"),
+                               str(here.parents[1] / "core" / "diagnostics.py"))
+    return diskcache.key("parse", 1, code, grammar_text(), name, text)
+
+
 def parse_source(src: Source, is_macro_head: Callable[[str], bool] | None = None) -> A.Program:
     """Parse a whole script into a Program of nested statements."""
     text = src.text
@@ -413,11 +428,16 @@ def parse_source(src: Source, is_macro_head: Callable[[str], bool] | None = None
     key = (src.name, text)
     flat = _FLAT_CACHE.get(key)
     if flat is None:
-        try:
-            tree = lark_parser().parse(text, start="start")
-        except UnexpectedInput as e:
-            raise _syntax_error(e, src, text) from None
-        flat = tuple(_transform(_ToAst(src), tree))
+        dkey = _disk_key(src.name, text)
+        flat = diskcache.load("parse", dkey) if dkey else None
+        if flat is None:
+            try:
+                tree = lark_parser().parse(text, start="start")
+            except UnexpectedInput as e:
+                raise _syntax_error(e, src, text) from None
+            flat = tuple(_transform(_ToAst(src), tree))
+            if dkey:
+                diskcache.store("parse", dkey, flat)
         _FLAT_CACHE[key] = flat
         while len(_FLAT_CACHE) > _FLAT_CACHE_SIZE:
             _FLAT_CACHE.popitem(last=False)

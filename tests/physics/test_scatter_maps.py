@@ -73,6 +73,22 @@ def test_geodetic_at_altitude_inverts_the_forward_transform(h):
             assert abs(lo - lon) <= 1e-12
 
 
+def test_geodetic_deep_inside_lies_on_the_normal():
+    """Deep inside (a small test globe centred at the origin), 60-600 km from the centre, just outside the
+    ellipsoid's evolute (within ~43 km of the centre the latitude is not unique), the point lies on the
+    ellipsoid's normal at the foot of the latitude returned: (P - F) x n = 0 to 1e-6 m."""
+    for rad in (60e3, 300e3, 600e3):
+        for ang_deg in (-80.0, -60.0, -10.0, 0.0, 25.0, 70.0, 89.0):
+            a = math.radians(ang_deg)
+            pr, z = rad * math.cos(a), rad * math.sin(a)
+            lat, lo = geodetic(pr * math.cos(0.7), pr * math.sin(0.7), z)
+            n = A_WGS / math.sqrt(1.0 - E2 * math.sin(lat) ** 2)
+            fp, fz = n * math.cos(lat), n * (1.0 - E2) * math.sin(lat)
+            cross = (pr - fp) * math.sin(lat) - (z - fz) * math.cos(lat)
+            assert abs(cross) <= 1e-6, (rad, ang_deg, cross)
+            assert abs(lo - 0.7) <= 1e-12
+
+
 # ------------------------------------------------------------------------------------------- grid conventions
 def test_map_value_rows_from_north_columns_from_minus_180():
     """LATLON grid nlat x nlon (row-major, at an offset in the flat array): the centre of cell (r, q) is at

@@ -120,7 +120,7 @@ def pack(params, n_lines: int) -> np.ndarray:
     for q, (g, w) in enumerate(gw):
         ks = np.nonzero(inv == q)[0]
         avg = _phase_avg_factory(g, order_weights(w, N))
-        R, T = slab_albedo_lines(avg, P[1, ks], w, mu)
+        R, T = slab_albedo_lines(avg, P[1, ks], w, mu, key=("HG", float(g), N, NT, T0))
         P[ROW_R:ROW_R + NT, ks] = R.T
         P[ROW_T:ROW_T + NT, ks] = T.T
     return P

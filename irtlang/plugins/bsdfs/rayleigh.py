@@ -98,7 +98,7 @@ def pack(params, n_lines: int) -> np.ndarray:
     mu = table_mu_nodes(NT, T0 * T0)
     avg = _phase_avg_factory(gamma)
     # every line shares the phase function and the tables are linear in w: one computation over the taus
-    R, T = slab_albedo_lines(avg, P[0], 1.0, mu)
+    R, T = slab_albedo_lines(avg, P[0], 1.0, mu, key=("RAYLEIGH", float(gamma), NT, T0))
     P[ROW_R:ROW_R + NT] = (R * P[1][:, None]).T
     P[ROW_T:ROW_T + NT] = (T * P[1][:, None]).T
     return P
