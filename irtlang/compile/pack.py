@@ -328,12 +328,13 @@ def _exact_key(v):
 
 def _pack_disk_key(plugin, key) -> str:
     """A packed block's key in the disk cache: the model's parameters and the code that packs them (the
-    plugin's module, every scatter-model module and the kernels they call)."""
+    plugin's module, every scatter-model module and the kernel helpers they call; not the trace kernel, which
+    no model's pack calls and which changes most often)."""
     from pathlib import Path
 
     here = Path(__file__).resolve().parents[1]
     files = sorted({str(Path(plugin.__file__).resolve())} | {str(f) for f in (here / "plugins" / "bsdfs").glob("*.py")}
-                   | {str(f) for f in (here / "kernels").glob("*.py")})
+                   | {str(f) for f in (here / "kernels").glob("*.py") if f.name != "trace_kernel.py"})
     return diskcache.key("packs", 1, diskcache.code_hash(*files), key)
 
 

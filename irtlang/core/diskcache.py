@@ -18,7 +18,8 @@ import pickle
 import tempfile
 from pathlib import Path
 
-MAX_ENTRIES = 2000      # per kind: the oldest are removed past this
+MAX_BYTES = 256 * 2 ** 20   # per kind: the least recently used entries are removed past this (the Earth's
+                            # 152 packed models take 64 MB, its parses 9 MB)
 
 
 def enabled() -> bool:
@@ -60,11 +61,15 @@ def load(kind: str, k: str):
     """The value stored under key k, or None (absent, unreadable, or the cache turned off)."""
     if not enabled():
         return None
+    p = _path(kind, k)
     try:
-        with open(_path(kind, k), "rb") as f:
-            return pickle.load(f)
+        with open(p, "rb") as f:
+            value = pickle.load(f)
     except Exception:       # absent, truncated by a crash, written by another Python: compute it again
         return None
+    with contextlib.suppress(OSError):
+        os.utime(p)         # recently used: trimmed last
+    return value
 
 
 def store(kind: str, k: str, value) -> None:
@@ -86,10 +91,16 @@ def store(kind: str, k: str, value) -> None:
 
 
 def _trim(folder: Path) -> None:
-    entries = list(folder.glob("*.pkl"))
-    if len(entries) <= MAX_ENTRIES:
-        return
-    entries.sort(key=lambda e: e.stat().st_mtime)
-    for e in entries[:len(entries) - MAX_ENTRIES]:
+    """Remove the least recently used entries while the folder holds more than MAX_BYTES."""
+    entries = []
+    for e in folder.glob("*.pkl"):
+        with contextlib.suppress(OSError):
+            st = e.stat()
+            entries.append((st.st_mtime, st.st_size, e))
+    total = sum(sz for _, sz, _ in entries)
+    for _, sz, e in sorted(entries, key=lambda t: t[0]):
+        if total <= MAX_BYTES:
+            break
         with contextlib.suppress(OSError):
             e.unlink()
+            total -= sz

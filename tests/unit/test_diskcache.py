@@ -83,3 +83,18 @@ def test_packed_tables_from_disk_are_bitwise_the_packed_ones(cache):
 def test_keys_tell_parts_apart():
     assert diskcache.key("a", "bc") != diskcache.key("ab", "c")
     assert diskcache.key(1.0) != diskcache.key(1)
+
+
+def test_trim_keeps_the_recently_used(cache, monkeypatch):
+    import os
+    import time
+
+    monkeypatch.setattr(diskcache, "MAX_BYTES", 3500)
+    for q in range(3):
+        diskcache.store("t", f"k{q}", b"x" * 1000)
+        p = cache / "t" / f"k{q}.pkl"
+        os.utime(p, (time.time() - 100 + q, time.time() - 100 + q))
+    assert diskcache.load("t", "k0") == b"x" * 1000       # used now: the newest
+    diskcache.store("t", "k3", b"x" * 1000)              # over 3500 bytes: the least recently used (k1) goes
+    names = sorted(p.stem for p in (cache / "t").glob("*.pkl"))
+    assert "k0" in names and "k3" in names and "k1" not in names
