@@ -213,7 +213,7 @@ def slab_albedo_lines(phase_avg, taus, w, mu_nodes: np.ndarray, key=None):
     log T_d, smooth in log tau: agreement with the direct computation to ~1e-7 on 300-2500 nm Rayleigh and
     aerosol layers, tests/physics/test_bsdf_slab_lines.py).  key: a hashable identity of phase_avg (for
     example ("RAYLEIGH", gamma)); with it the panels are computed once per session for every model that
-    shares the phase function and w (the Earth's Rayleigh shells: 75 models, 10 panels; 37 s -> 0.5 s)."""
+    shares the phase function and w (the Earth's Rayleigh shells: 75 models, 14 panels; 37 s -> 0.5 s)."""
     taus = np.asarray(taus, float)
     R = np.zeros((len(taus), len(mu_nodes)))
     T = np.zeros((len(taus), len(mu_nodes)))
