@@ -50,15 +50,22 @@ def test_cluster_sphere_holds_its_members():
     for j in range(n):
         q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
         f[j, SF_R:SF_R + 9] = q.ravel()
-        f[j, SF_TH:SF_TH + 3] = 2.7e10 + rng.normal(size=3)        # 0.18 AU away, a metre apart
+        f[j, SF_TH:SF_TH + 3] = 2.7e10 + 0.5 * rng.normal(size=3)  # 0.18 AU away, a metre apart
         f[j, SF_TL:SF_TL + 3] = rng.normal(size=3) * 1e-7
         f[j, SF_BS:SF_BS + 3] = rng.normal(size=3) * 0.2
-        f[j, SF_BS + 3] = rng.uniform(0.01, 0.3)
+        f[j, SF_BS + 3] = rng.uniform(0.3, 0.5)
     fam = np.full(n, -1)
     fam[4] = 0              # a shell in the middle splits the run: 0..3 and 5..8
     f[6, SF_BS + 3] = np.inf  # an unbounded surface splits it again: 5 alone, 7..8 too short
     sph, ends = PK.surface_clusters(f, fam)
     assert list(np.nonzero(ends)[0]) == [0] and ends[0] == 4
+    # a run that is the whole scene (a telescope alone) is no cluster
+    assert not np.any(PK.surface_clusters(f[:4], np.full(4, -1))[1])
+    # a surface 100 km away (the planet after the telescope in the script) ends the cluster
+    g = np.concatenate([f[:4], f[:1]])
+    g[4, SF_TH:SF_TH + 3] += 1e5
+    sph2, ends2 = PK.surface_clusters(g, np.full(5, -1))
+    assert list(np.nonzero(ends2)[0]) == [0] and ends2[0] == 4 and np.allclose(sph2[0], sph[0])
     c, r = sph[0, :3], sph[0, 3]
     for j in range(4):
         R = f[j, SF_R:SF_R + 9].reshape(3, 3)
