@@ -25,7 +25,8 @@ from ..kernels.layout import (AP_ANNULUS, APERTURE_CODES,  # noqa: F401
                               DIR_COLLIMATED, DIR_CONVERGE, DIR_DIVERGE, DIR_FIELD, DIR_LAMBERT, IF_ABSORB,
                               IF_FRESNEL, IF_METAL, IF_POLARIZER, IF_REFLECT, IF_RETARDER, IF_SPLIT, N_ASPH, N_PAR,
                               SF_AP, SF_ASPH, SF_BS, SF_CL, SF_HOLE, SF_N, SF_PAR, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
-                              SI_AXIS, SI_CLEND, SI_FAM, SI_FIDX, SI_KIND, SI_MESH, SI_N, SI_NASPH, SI_OBJ, SAMPLE_SPECTRAL,
+                              SI_AXIS, SI_CLEND, SI_FAM, SI_FIDX, SI_FNEXT, SI_FOUT, SI_FPREV, SI_KIND, SI_MESH,
+                              SI_N, SI_NASPH, SI_OBJ, SAMPLE_SPECTRAL,
                               SAMPLE_STRATIFIED, SPEC_GATE)
 from ..plugins.sources import EMITTER_CODES
 from ..plugins.surfaces import CODES as SURFACE_CODES, REGISTRY as SURFACES
@@ -135,7 +136,7 @@ class Packed:
     map_nlat: np.ndarray
     map_nlon: np.ndarray
     mod_kind: np.ndarray            # index into features.bsdf_kinds
-    mod_P: np.ndarray               # (nM, PMAX, L)
+    mod_P: np.ndarray               # (nM, L, PMAX): model m's (PMAX, L) block is mod_P[m].T (one line contiguous)
     mod_slab: np.ndarray
     model_names: list
     # detectors (pixel grid in the surface's local x, y)
@@ -220,6 +221,7 @@ class Packed:
         for col, v in ((SI_KIND, self.s_kind), (SI_NASPH, self.s_nasph), (SI_APK, self.s_ap_kind),
                        (SI_MESH, self.s_mesh), (SI_OBJ, self.s_obj), (SI_AXIS, axis), (SI_FAM, fam), (SI_FIDX, fidx)):
             i[:, col] = v
+        i[:, SI_FPREV], i[:, SI_FNEXT], i[:, SI_FOUT] = family_links(fam, fidx)
         f[:, SF_CL:SF_CL + 4], i[:, SI_CLEND] = surface_clusters(f, fam)
         m = np.stack([self.m_node_off, self.m_node_n, self.m_tri_off, self.m_tri_n], axis=1).astype(np.int64) \
             if len(self.m_node_n) else np.zeros((1, 4), np.int64)
@@ -323,6 +325,29 @@ def shell_families(pk) -> tuple:
             fam[j], fidx[j] = nf, q
         nf += 1
     return fam, fidx
+
+
+def family_links(fam: np.ndarray, fidx: np.ndarray) -> tuple:
+    """(prev, next, out) per surface: for a member of a nested-shell family, the surfaces of index fidx - 1 and
+    fidx + 1 in its family (-1: none) and the first surface after it that is not in its family (n: none); -1,
+    -1, 0 elsewhere.  The kernel's nearest-hit search, after a crossing of shell i, jumps over the members it
+    need not test (all but i - 1, i, i + 1) instead of stepping through them one by one: the Earth's 37 shells
+    cost three tests per event and a handful of jumps."""
+    n = len(fam)
+    prev = np.full(n, -1, np.int64)
+    nxt = np.full(n, -1, np.int64)
+    out = np.zeros(n, np.int64)
+    where = {(int(fam[j]), int(fidx[j])): j for j in range(n) if fam[j] >= 0}
+    for j in range(n):
+        if fam[j] < 0:
+            continue
+        prev[j] = where.get((int(fam[j]), int(fidx[j]) - 1), -1)
+        nxt[j] = where.get((int(fam[j]), int(fidx[j]) + 1), -1)
+        k = j + 1
+        while k < n and fam[k] == fam[j]:
+            k += 1
+        out[j] = k
+    return prev, nxt, out
 
 
 _MODEL_PACKS: dict = {}
@@ -567,9 +592,11 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
     feats.scatter = bool(used_models)
     blocks = [_pack_model(scene.models[m].kind, scene.models[m].params, L) for m in used_models]
     pmax = max([b.shape[0] for b in blocks] + [1])
-    mod_P = np.zeros((max(1, len(blocks)), pmax, L))
+    # stored line-major: a path reads one line's parameters and tables (P[:, k]), which are then one contiguous
+    # run instead of one cache line per row (the kernel takes model m's (PMAX, L) block as mod_P[m].T)
+    mod_P = np.zeros((max(1, len(blocks)), L, pmax))
     for j, b in enumerate(blocks):
-        mod_P[j, :b.shape[0]] = b
+        mod_P[j, :, :b.shape[0]] = b.T
     mod_kind = np.array([kinds.index(scene.models[m].kind) for m in used_models] or [0], np.int32)
     mod_slab = np.array([int(getattr(BSDFS[scene.models[m].kind], "SLAB", False)) for m in used_models] or [0], np.int32)
 

@@ -38,7 +38,10 @@ SI_AXIS = 5         # 1: the rotation is exactly the identity (the kernel skips 
 SI_FAM = 6          # nested-shell family (compile.pack.shell_families), -1: none
 SI_FIDX = 7         # the shell's index in its family
 SI_CLEND = 8        # on the first surface of a cluster (compile.pack.surface_clusters), one past its last; else 0
-SI_N = 9
+SI_FPREV = 9        # a family member: the surface of index SI_FIDX - 1 in its family, -1: none (or not a member)
+SI_FNEXT = 10       # a family member: the surface of index SI_FIDX + 1, -1: none
+SI_FOUT = 11        # a family member: the first surface after it that is not in its family (n: none)
+SI_N = 12
 #: ``Surfaces.mesh`` (meshes, 4) columns: BVH node offset and count, triangle offset and count
 MI_NODE_OFF, MI_NODE_N, MI_TRI_OFF, MI_TRI_N = range(4)
 
@@ -93,7 +96,8 @@ Surfaces = namedtuple("Surfaces", "f i mesh bmin bmax child count tris ids fn")
 #: bounding sphere (for TOWARD), sc_first and sc_cnt: its SCATTER specs
 Objects = namedtuple("Objects", "itf coat back front det pol bc br sc_first sc_cnt")
 #: the scatter specs (kind, model, map, cls_off, cls_n, rays, tgt), the class tables (cls_models), the
-#: LATLON maps (data, off, nlat, nlon), the models: kind (the kernel's dispatch index), P (models, PMAX, L), slab
+#: LATLON maps (data, off, nlat, nlon), the models: kind (the kernel's dispatch index), P (models, L, PMAX; model m's
+#: (PMAX, L) block is P[m].T), slab
 Scatter = namedtuple("Scatter", "kind model map cls_off cls_n rays tgt cls_models map_data map_off map_nlat map_nlon "
                                 "mod_kind mod_P mod_slab")
 #: per medium and line: n, alpha, row (ledger row, -1), sig, alb, g, phase, depol, tgt, nee; the coatings

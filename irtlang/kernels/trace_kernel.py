@@ -37,8 +37,8 @@ from .layout import (AP_NONE, C_ABS, C_INC, C_REF, C_SCA, C_TRA, DIR_COLLIMATED,
                      FL_REFLECTED, FL_SCATTERED, FL_TRANSMITTED, IF_ABSORB, IF_FRESNEL, IF_METAL,
                      IF_POLARIZER, IF_REFLECT, IF_RETARDER, IF_SPLIT, PHASE_HG, PHASE_RAYLEIGH,
                      SAMPLE_SPECTRAL, SF_AP, SP_CORRELATED, SP_DIRECTIONS, SF_BS, SF_CL, SF_HOLE, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
-                     SI_AXIS, SI_CLEND, SI_FAM, SI_FIDX, SI_KIND, SI_OBJ, SPEC_CLASS_MAP, SPEC_FRACTION_MAP, SPEC_GATE,
-                     SPEC_MODEL)
+                     SI_AXIS, SI_CLEND, SI_FAM, SI_FNEXT, SI_FOUT, SI_FPREV, SI_KIND, SI_OBJ, SPEC_CLASS_MAP,
+                     SPEC_FRACTION_MAP, SPEC_GATE, SPEC_MODEL)
 from .layout import Detectors, Media, Scatter, Sources, Surfaces
 from .optics import fresnel_unpolarized, refract
 from .polar import (azimuth_angle, diattenuate, frame, fresnel_mueller, metal_mueller, perpendicular, rayleigh_mueller,
@@ -146,6 +146,9 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, S, jlast):
     blz = 0.0
     bface = -1
     fam_last = si[jlast, SI_FAM] if F_SHELLS and jlast >= 0 else -1
+    # after a crossing of shell i of a family, only its neighbours i - 1, i, i + 1 can be met next (pack.shell_families)
+    nb_lo = si[jlast, SI_FPREV] if fam_last >= 0 else -1
+    nb_hi = si[jlast, SI_FNEXT] if fam_last >= 0 else -1
     skip_to = 0
     for j in range(si.shape[0]):
         if j < skip_to:
@@ -171,8 +174,18 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, S, jlast):
                 if disc < 0.0 or (best_t < np.inf and -bb - math.sqrt(disc) > best_t):
                     skip_to = ce
                     continue
-        if F_SHELLS and fam_last >= 0 and si[j, SI_FAM] == fam_last and abs(si[j, SI_FIDX] - si[jlast, SI_FIDX]) > 1:
-            continue    # a nested shell beyond the neighbours of the one just crossed
+        if F_SHELLS and fam_last >= 0 and si[j, SI_FAM] == fam_last and j != jlast and j != nb_lo and j != nb_hi:
+            # a nested shell beyond the neighbours of the one just crossed: jump to the next neighbour or to the
+            # first surface after this run of the family (the order of the tests, and so any tie, is unchanged)
+            nxt = si[j, SI_FOUT]
+            if nb_lo > j and nb_lo < nxt:
+                nxt = nb_lo
+            if jlast > j and jlast < nxt:
+                nxt = jlast
+            if nb_hi > j and nb_hi < nxt:
+                nxt = nb_hi
+            skip_to = nxt
+            continue
         ox, oy, oz, ldx, ldy, ldz = _local(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, j)
         k = si[j, SI_KIND]
         # bounding-sphere cull (unit direction): skip a surface the ray cannot reach, or not before best_t
@@ -1054,7 +1067,8 @@ def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, MD, scf, scn, nee, 
     the hit uses it (the random choice in _scatter_spec still decides the path's continuation, which then sends
     none): the same expectation, without the variance of the choice (a partly cloudy pixel: cloud or not).
     A slab model on an index step (an atmosphere shell) sends w (1 - R_Fresnel), as in _model_split.  bounds
-    (o_bc, o_br), fres (interface, m1, m2, cos_i, Ar, Br), ll: the hit's geodetic (latitude, longitude).
+    (o_bc, o_br), fres (interface, m1, m2, cos_i, Ar, Br, the boundary's unpolarized Fresnel R from
+    _specular), ll: the hit's geodetic (latitude, longitude).
     Returns (used, sp, npath)."""
     ev_nee = False
     if F_MAPS and F_IMPORTANCE and not nee and scn > 0:
@@ -1065,13 +1079,13 @@ def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, MD, scf, scn, nee, 
     if F_MAPS and F_IMPORTANCE and ev_nee:
         lat, lon = ll
         o_bc, o_br = bounds
-        it, m1, m2, cos_i, Ar, Br = fres
+        it, m1, m2, cos_i, Ar, Br, Rfr = fres
         keep = 1.0      # a slab's share behind the boundary's Fresnel reflection
         if F_REFRACT and it == IF_FRESNEL and MD.n[m1, line] != MD.n[m2, line]:
             if F_POLAR:
                 keep = 1.0 - (Ar + Br * pol[0])
             else:
-                keep = 1.0 - fresnel_unpolarized(cos_i, MD.n[m1, line], MD.n[m2, line])
+                keep = 1.0 - Rfr    # _specular's fresnel_unpolarized(cos_i, n1, n2), the same call
         preach = 1.0
         kc = 0
         for qq in range(scn):
@@ -1100,7 +1114,7 @@ def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, MD, scf, scn, nee, 
                 nr = SC.rays[spn]
                 wq = w * pmix * keep if SC.mod_slab[mq] == 1 else w * pmix
                 sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, kc, SC.mod_kind[mq],
-                                         SC.mod_P[mq], tq, nr, wq, nee_cut, o_bc, o_br, pos, d, nv, pol, o, j, opl,
+                                         SC.mod_P[mq].T, tq, nr, wq, nee_cut, o_bc, o_br, pos, d, nv, pol, o, j, opl,
                                          sx0, sy0, hist, H)
                 kc += nr
             if preach <= 0.0:
@@ -1117,16 +1131,17 @@ def _model_split(stack, sp, npath, led, c, r_imp, key, line, SC, MD, spec, geo, 
     not for a ray itself aimed at a target, nor where _map_nee sent them).  A slab on an index step scatters
     only the share keep = 1 - R_Fresnel (0 under total internal reflection): its rays toward the target carry
     w keep, and its sampled scatterings' weights carry keep too (_diffuse_scatter).  geo (object, surface,
-    interface, m1, m2), fres (R, T, Ar, Br), how (nee, ev_nee), bounds (o_bc, o_br).  Returns (R, T, diffuse,
+    interface, m1, m2), fres (R, T, Ar, Br, and _specular's R before any gate: an IF_FRESNEL boundary's
+    unpolarized Fresnel R), how (nee, ev_nee), bounds (o_bc, o_br).  Returns (R, T, diffuse,
     keep, kind, P, sp, npath)."""
     sc, sc_n, sc_tgt = spec
     o, j, it, m1, m2 = geo
-    R, T, Ar, Br = fres
+    R, T, Ar, Br, Rfr = fres
     nee, ev_nee = how
     o_bc, o_br = bounds
     stq = pol[0]
     mk = SC.mod_kind[sc]
-    Pm = SC.mod_P[sc]
+    Pm = SC.mod_P[sc].T       # (PMAX, L), line-major in memory (compile.pack)
     Rb, Tb = _bsdf_albedo(mk, Pm, line, cos_i)
     w_nee = w
     keep = 1.0
@@ -1143,7 +1158,7 @@ def _model_split(stack, sp, npath, led, c, r_imp, key, line, SC, MD, spec, geo, 
             if F_POLAR:
                 Rf = Ar + Br * stq
             else:
-                Rf = fresnel_unpolarized(cos_i, MD.n[m1, line], MD.n[m2, line])
+                Rf = Rfr        # _specular's fresnel_unpolarized(cos_i, n1, n2), the same call
             R = Rf
             T *= 1.0 - Rf
             diffuse *= 1.0 - Rf
@@ -1467,7 +1482,7 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
         nrec = 0
         stack = np.empty((SMAX, SWP + H))
         hist = np.full(max(H, 1), -1.0)
-        Pm = mod_P[0]
+        Pm = mod_P[0].T
         # per source ray: incident flux per object, so that inc_sq and the images' squares sum the squares of
         # whole source-ray contributions (split paths, rays sent toward a target and repeated hits of one
         # source ray are correlated: squaring each incidence alone underestimates the standard error)
@@ -1605,6 +1620,7 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                                                     lx, ly, sx0, sy0, s_f, j, dx, dy, dz, ex, ey, ez, stq, stu, stv)
                     # the interface: specular R and T, absorbed A
                     R, T, Ar, Br, xr, yr, At, Bt, xt, yt = _specular(MD, it, o_coat[o], line, ci, m1, m2)
+                    Rfr = R     # an IF_FRESNEL boundary's unpolarized R, kept for its slab model's share
                     if F_POLAR:
                         R, T, stq, stu, ex, ey, ez = _interface_frame(it, o_pol, o, s_f, j, dx, dy, dz, nwx, nwy, nwz,
                                                                       ex, ey, ez, stq, stu, R, T, Ar, Br, At, Bt)
@@ -1634,14 +1650,14 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                     # a fraction map's models all send their rays toward their targets (expected value)
                     ev_nee, sp, npath = _map_nee(stack, sp, npath, led, c, r_imp, (seed, i, ev, path), line, SC, MD,
                                                  scf, scn, nee, w, nee_cut, (o_bc, o_br),
-                                                 (it, m1, m2, cos_i, Ar, Br), (glat, glon),
+                                                 (it, m1, m2, cos_i, Ar, Br, Rfr), (glat, glon),
                                                  (phx, phy, phz, plx, ply, plz), (dx, dy, dz), (nvx, nvy, nvz),
                                                  (stq, stu, stv, ex, ey, ez), o, j, opl, sx0, sy0, hist, H)
                     if F_SCATTER and sc >= 0:
                         # the model's share of the light (R, T and diffuse), and its rays toward its target
                         R, T, diffuse, slab_keep, mk, Pm, sp, npath = _model_split(
                             stack, sp, npath, led, c, r_imp, (seed, i, ev, path), line, SC, MD, (sc, sc_n, sc_tgt),
-                            (o, j, it, m1, m2), (R, T, Ar, Br), cos_i, (nee, ev_nee), w, nee_cut, (o_bc, o_br),
+                            (o, j, it, m1, m2), (R, T, Ar, Br, Rfr), cos_i, (nee, ev_nee), w, nee_cut, (o_bc, o_br),
                             (phx, phy, phz, plx, ply, plz), (dx, dy, dz), (nvx, nvy, nvz),
                             (stq, stu, stv, ex, ey, ez), opl, sx0, sy0, hist, H)
                     tot = R + T + diffuse
