@@ -331,7 +331,7 @@ def family_links(fam: np.ndarray, fidx: np.ndarray) -> tuple:
     """(prev, next, out) per surface: for a member of a nested-shell family, the surfaces of index fidx - 1 and
     fidx + 1 in its family (-1: none) and the first surface after it that is not in its family (n: none); -1,
     -1, 0 elsewhere.  The kernel's nearest-hit search, after a crossing of shell i, jumps over the members it
-    need not test (all but i - 1, i, i + 1) instead of stepping through them one by one: the Earth's 37 shells
+    need not test (all but i - 1, i, i + 1) instead of stepping through them one by one: the Earth's shells
     cost three tests per event and a handful of jumps."""
     n = len(fam)
     prev = np.full(n, -1, np.int64)
