@@ -233,16 +233,23 @@ class Engine:
         import dataclasses
 
         from .compile.pack import MissingFeature
-        from .model.camera import camera_scene
+        from .model.camera import camera_scene, with_guide
         from .tracer import run_trace
 
         p = step.params
         passes = self.STOKES_ANALYZERS if cam.get("stokes") else ((),)
         t0 = time.perf_counter()
         imgs, n_traced = [], 0
+        guide = None
         for k, analyzer in enumerate(passes):
             csc, info = camera_scene(sc, cam, step.span, analyzer)
             seed = self.trace_seed(csc.seed)
+            if cam.get("guide"):
+                if k == 0:
+                    guide, gstats = self._camera_guide(csc, cam, info, seed, step)
+                if guide is not None:
+                    csc = with_guide(csc, *guide)
+                    info["guide"] = gstats
             try:
                 res = run_trace(csc, seed=(seed + (k << 40)) % (1 << 63), level=p["level"], halt=p["halt"],
                                 records=False, history=False, progress=self.progress, runner=self.runner)
@@ -307,6 +314,45 @@ class Engine:
                  f"pixels {i0}..{i1 - 1} x {j0}..{j1 - 1}); "
                  f"{img.sum():.6g} W on the window, median relative standard error {med:.2%} on lit pixels; "
                  f"{time.perf_counter() - t0:.1f} s")
+
+    def _camera_guide(self, csc, cam, info, seed, step):
+        """TRACE CAMERA ... GUIDE g: the pilot trace through the instrument alone toward the scene
+        (irtlang/model/camera.py, guide_pilot), on the camera trace's own kernel (its features as the
+        pilot's floor: no compilation of its own), and the tables the camera's rays then draw their directions
+        from: ((pmf, g, t), the pilot's shares of directions that reach the scene), or (None, None) where the
+        scene outside the instrument is unbounded (the trace then goes unguided)."""
+        from .compile.pack import MissingFeature, pack
+        from .model.camera import guide_pilot, guide_tables, instrument_objects
+        from .tracer import _object_bounds, run_trace
+
+        t0 = time.perf_counter()
+        pk = pack(csc)
+        keep = instrument_objects(csc, cam["camera"], info["light"])
+        bc, br = _object_bounds(pk)
+        rest = [i for i, k in enumerate(csc.objects) if k not in keep and csc.objects[k].name != info["light"]]
+        if not rest or not np.all(np.isfinite(br[rest])):
+            self.out(f"TRACE CAMERA {info['camera']}: GUIDE needs a bounded scene outside the instrument: "
+                     "the rays go unguided")
+            return None, None
+        # the target: a sphere about the scene's centre, half as wide as the scene is far (a ray that leaves the
+        # instrument toward the scene reaches it wherever the scene's own edges are)
+        big = max(rest, key=lambda i: br[i])
+        centre = bc[big]
+        radius = 0.5 * float(np.linalg.norm(centre - (pk.src_Th[0] + pk.src_Tl[0])))
+        pilot, pinfo = guide_pilot(csc, cam, info, step.span, (centre, radius))
+        try:
+            res = run_trace(pilot, seed=(seed + (7 << 40)) % (1 << 63), level=step.params["level"], halt=0.0,
+                            features=pk.features)
+        except MissingFeature as e:
+            raise MissingCapability(e.span, e.what, e.capability) from None
+        g, t = pinfo["g"], pinfo["t"]
+        img, _ = res.images[pinfo["catcher"]]
+        pmf, stats = guide_tables(img.sum(axis=0), g, t)
+        self.out(f"TRACE CAMERA {info['camera']}: GUIDE {g} x {g} cells of the aim cone in {t} x {t} tiles "
+                 f"({res.n_traced:,} pilot rays through {pinfo['kept']} objects): {stats['uniform']:.1%} of the "
+                 f"directions reach the scene, {stats['guided']:.1%} of the guided ones; "
+                 f"{time.perf_counter() - t0:.1f} s")
+        return (pmf, g, t), dict(stats, cells=g, tiles=t, pilot_rays=res.n_traced)
 
     def _camera_sun_variables(self, csc, res, info, interp, step):
         """CAMERA_SUN[_filter]: the light's irradiance at 1 AU summed over each image's band (W/m2), weighted as

@@ -282,11 +282,12 @@ def default_batch(ctx: TraceContext, runner=None) -> int:
 def run_trace(scene, *, seed: int, level: int, halt: float, until_error: float | None = None,
               until_target: str | None = None, records: bool = False, history: bool = False,
               batch: int | None = None, max_passes: int = 1000, progress: Progress | None = None,
-              runner=None) -> TraceResult:
+              runner=None, features=None) -> TraceResult:
     """Trace a scene.  `runner(ctx, units) -> iterable of BatchTally in order` may run the batches elsewhere
     (irtlang.cluster); by default they run here, one after another, each in parallel over Numba threads.
-    `batch` (rays per batch, whole chunks) defaults to ``default_batch``."""
-    pk = pack(scene, records=records, history=history)
+    `batch` (rays per batch, whole chunks) defaults to ``default_batch``.  `features`: switched on beyond the
+    scene's own (``pack``'s floor: run on a kernel another trace compiled)."""
+    pk = pack(scene, records=records, history=history, floor=features)
     ctx = TraceContext(pk, seed=seed, level=level, halt=halt, records=records, history=history)
     # chunks are global (ray id // CHUNK), so results do not depend on the batch size: whole chunks per batch
     chunk = ctx.mod.CHUNK

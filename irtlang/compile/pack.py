@@ -11,6 +11,7 @@ surface plugin packs its own parameters (``pack``, ``bounds``, ``size``).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -32,7 +33,9 @@ from ..plugins.sources import EMITTER_CODES
 from ..plugins.surfaces import CODES as SURFACE_CODES, REGISTRY as SURFACES
 
 SK_PLANE, SK_CONIC, SK_SPHERE, SK_ELLIPSOID = (SURFACE_CODES[k] for k in ("PLANE", "CONIC", "SPHERE", "ELLIPSOID"))
-from ..kernels.layout import N_SRC_PAR, N_TERMINAL_ROWS, SP_CORRELATED, SP_DIRECTIONS, SP_ELLIPSE  # noqa: E402  EMITTED, ESCAPED, HALTED, LOST: the last rows
+# N_TERMINAL_ROWS: EMITTED, ESCAPED, HALTED, LOST, the ledger's last rows
+from ..kernels.layout import (N_SRC_PAR, N_TERMINAL_ROWS, SP_CORRELATED, SP_DIRECTIONS, SP_ELLIPSE,  # noqa: E402
+                              SP_GUIDE, SP_GUIDE_ROW, SP_GUIDE_T, SP_PILOT)
 
 
 class MissingFeature(Exception):
@@ -480,7 +483,10 @@ def _surface_size(s: M.Surface) -> float:
     return float(SURFACES[s.kind].size(s))
 
 
-def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Packed:
+def pack(scene: M.Scene, *, records: bool = False, history: bool = False, floor: Features | None = None) -> Packed:
+    """The scene's packed arrays.  `floor`: features to switch on even where this scene does not need them, so
+    that it runs on the kernel another scene has already compiled (a camera GUIDE's pilot runs on its camera
+    trace's kernel); its scatter-model dispatch is taken when this scene has no models of its own."""
     L = scene.n_lines
     lines = np.asarray(scene.wavelengths_nm, float)
     widths = (np.diff(band_edges(lines), axis=1)[:, 0] if L > 1 else np.ones(1))
@@ -768,6 +774,12 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False) -> Pac
                   d_obj, d_nx, d_ny, d_ext, d_qe, [scene.objects[obj_keys[i]].name for i, _ in det_rows],
                   d_filters=d_filters, d_start=d_start, s_bounds=s_bounds, nee_cut=float(getattr(scene, 'importance_cut', 0.0)), **src)
     feats.shells = bool(np.any(shell_families(pk)[0] >= 0))
+    if floor is not None:
+        for f in dataclasses.fields(Features):
+            if f.name != "bsdf_kinds":
+                setattr(feats, f.name, bool(getattr(feats, f.name) or getattr(floor, f.name)))
+        if not used_models:
+            feats.bsdf_kinds = tuple(floor.bsdf_kinds)
     return pk
 
 
@@ -836,6 +848,23 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
                 lines_used = [k for k in range(L) if wl[k] > 0.0]
                 nl = len(lines_used)
                 out["src_lmap"][i, :nl] = lines_used
+            guide = p.get("guide")
+            if guide is not None:
+                # GUIDE: t x t tiles of the start lattice, each a table of the aim cone's g x g cells (rows (cdf,
+                # 1 / (g^2 pmf)), irtlang/model/camera.py); the pilot tallies by cell and tile
+                g, t, pmf = guide["g"], guide["t"], guide.get("pmf")
+                par[SP_GUIDE_T] = t
+                if guide.get("pilot"):
+                    par[SP_PILOT] = 1.0
+                else:
+                    pmf = np.asarray(pmf, float).reshape(t * t, g * g)
+                    cdf = np.cumsum(pmf, axis=1)
+                    cdf[:, -1] = 1.0
+                    rows = np.column_stack([cdf.ravel(), (1.0 / (g * g * pmf)).ravel()])
+                    par[SP_GUIDE] = g
+                    par[SP_GUIDE_ROW] = npts - pts_off[-1]
+                    pts.append(rows)
+                    npts += len(rows)
             n = p["nx"] * p["ny"] * p["sub"] ** 2 * per
             R, Th, Tl = world_frame(scene, p["frame"], s.group)
             out["src_R"][i], out["src_Th"][i], out["src_Tl"][i] = R, Th, Tl

@@ -70,11 +70,19 @@ DIR_COLLIMATED, DIR_DIVERGE, DIR_CONVERGE, DIR_FIELD, DIR_LAMBERT = range(5)
 #: spectral samples (lines drawn from the bands' cumulative weights in ``Sources.pts``)
 SAMPLE_LATTICE, SAMPLE_RANDOM, SAMPLE_STRATIFIED, SAMPLE_SPECTRAL = range(4)
 #: ``Sources.par`` columns: a kind's own (0-10), DIRECTIONS m of a camera (11), 1 for a camera's one elliptical
-#: pixel (12: a DISK or ELLIPSE aperture), 1 for a camera whose lines share their random numbers (13: CORRELATED)
-N_SRC_PAR = 14
+#: pixel (12: a DISK or ELLIPSE aperture), 1 for a camera whose lines share their random numbers (13: CORRELATED),
+#: a camera's GUIDE: g (14: g x g cells of the aim cone, as the DIRECTIONS strata), t (15: t x t tiles of its start
+#: lattice, each with its own table), the first row of the tables in ``Sources.pts`` after the source's
+#: ``pts_off`` (16: t^2 tables of g^2 rows (cdf, 1 / (g^2 pmf))); 1 for the guide's pilot (17: a DIRECTIONS
+#: camera whose rays report (stratum + 1/2, tile + 1/2) as their start point, for a DETECTOR ... START tally)
+N_SRC_PAR = 18
 SP_DIRECTIONS = 11
 SP_ELLIPSE = 12
 SP_CORRELATED = 13
+SP_GUIDE = 14
+SP_GUIDE_T = 15
+SP_GUIDE_ROW = 16
+SP_PILOT = 17
 
 # ---------------------------------------------------------------------------------------------- tallies
 #: ledger columns

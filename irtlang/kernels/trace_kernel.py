@@ -36,7 +36,8 @@ from .layout import (AP_NONE, C_ABS, C_INC, C_REF, C_SCA, C_TRA, DIR_COLLIMATED,
                      DIR_LAMBERT, EV_A, EV_R, EV_S, EV_T, FL_ESCAPED, FL_HALTED, FL_LOST,
                      FL_REFLECTED, FL_SCATTERED, FL_TRANSMITTED, IF_ABSORB, IF_FRESNEL, IF_METAL,
                      IF_POLARIZER, IF_REFLECT, IF_RETARDER, IF_SPLIT, PHASE_HG, PHASE_RAYLEIGH,
-                     SAMPLE_SPECTRAL, SF_AP, SP_CORRELATED, SP_DIRECTIONS, SF_BS, SF_CL, SF_HOLE, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
+                     SAMPLE_SPECTRAL, SF_AP, SP_CORRELATED, SP_DIRECTIONS, SP_GUIDE, SP_GUIDE_ROW, SP_GUIDE_T,
+                     SP_PILOT, SF_BS, SF_CL, SF_HOLE, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
                      SI_AXIS, SI_CLEND, SI_FAM, SI_FNEXT, SI_FOUT, SI_FPREV, SI_KIND, SI_OBJ, SPEC_CLASS_MAP,
                      SPEC_FRACTION_MAP, SPEC_GATE, SPEC_MODEL)
 from .layout import Detectors, Media, Scatter, Sources, Surfaces
@@ -518,6 +519,13 @@ def _gen(i, total, seed, SRC, o_bc, o_br, src_dw):
         if nd > 0:      # the pair's stratum: m bands of equal solid angle in cos(angle) by m in azimuth
             u2 = (st % nd + u2) / nd
             u3 = (st // nd + u3) / nd
+            if src_par[s, SP_PILOT] > 0.0:
+                # a GUIDE's pilot: its tally bins by stratum and tile (DETECTOR ... START)
+                lx = st + 0.5
+                ly = _guide_tile(src_par, s, q, int(src_par[s, SP_GUIDE_T])) + 0.5
+        elif src_par[s, SP_GUIDE] > 0.0:
+            u2, u3, gw = _guide(SRC, s, q, u2, u3)
+            w *= gw
         dwx, dwy, dwz = _cone_dir(u2, u3, omc, kx, ky, kz)
         omega = TWO_PI * omc
         w *= _source_toward(kind, SRC, s, dwx * nwx + dwy * nwy + dwz * nwz, omega)
@@ -529,6 +537,40 @@ def _gen(i, total, seed, SRC, o_bc, o_br, src_dw):
     dwy = x * t1y + y * t2y + z * nwy
     dwz = x * t1z + y * t2z + z * nwz
     return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w, lx, ly, pm, i
+
+
+@numba.njit(cache=True, inline="always")
+def _guide_tile(par, s, q, t):
+    """The tile (of t x t over the source's start lattice, par[4] x par[5] points) that start point q lies in."""
+    nxs = int(par[s, 4])
+    nys = int(par[s, 5])
+    iy = q // nxs
+    ix = q - iy * nxs
+    return (iy * t // nys) * t + ix * t // nxs
+
+
+@numba.njit(cache=True, inline="always")
+def _guide(SRC, s, q, u2, u3):
+    """A camera's GUIDE (irtlang/model/camera.py): the cell of the g x g strata of the aim cone drawn from start
+    point q's tile's table (rows (cdf, 1 / (g^2 pmf)) in SRC.pts), u2 reused within the cell (its place between
+    the cell's cumulative bounds), u3 across it.  Returns the cone's (u2, u3) and the weight factor: the uniform
+    density over the guided one, so every cell (the pmf mixes in a uniform share) keeps its expected value."""
+    par = SRC.par
+    g = int(par[s, SP_GUIDE])
+    r0 = SRC.pts_off[s] + int(par[s, SP_GUIDE_ROW]) + _guide_tile(par, s, q, int(par[s, SP_GUIDE_T])) * g * g
+    pts = SRC.pts
+    lo = 0
+    hi = g * g - 1
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if pts[r0 + mid, 0] <= u2:
+            lo = mid + 1
+        else:
+            hi = mid
+    c0 = pts[r0 + lo - 1, 0] if lo > 0 else 0.0
+    f = (u2 - c0) / (pts[r0 + lo, 0] - c0)
+    f = min(max(f, 0.0), 0.9999999999999999)
+    return (lo % g + f) / g, (lo // g + u3) / g, pts[r0 + lo, 1]
 
 
 @numba.njit(cache=True, inline="always")

@@ -795,6 +795,10 @@ def _square(x):
     return None if r * r == x else "must be a square (1, 4, 9, 16, ...): s x s stratified rays per pixel"
 
 
+def _guide_cells(x):
+    return None if x == 0 or 4 <= x <= 64 else "must be 4 to 64 (0: off)"
+
+
 @command("TRACE", Form((), (Clause("UNTIL", (Choice("what", ("ERROR",)), V("error", check=lambda x: None if 0 < x < 1 else "must be between 0 and 100%"),
                                             Choice("on", ("ON",)), Ref("target", "object"))),
                             Clause("CAMERA", (Ref("camera", "object"),),
@@ -810,6 +814,9 @@ def _square(x):
                                        "cone (standard errors from the pairs)"),
                             Clause("CORRELATED", (), doc="every line of a camera ray position draws the same random "
                                                          "numbers: a spectrum's shape is sharper than each line"),
+                            Clause("GUIDE", (V("guide", integer=True, check=_guide_cells),),
+                                   doc="draw camera rays' directions from g x g cells of the aim cone, as a pilot "
+                                       "trace through the instrument found them leaving it (unbiased; 0: off)"),
                             Clause("WINDOW", (V("i0", integer=True, check=nonneg), V("i1", integer=True, check=positive),
                                               V("j0", integer=True, check=nonneg), V("j1", integer=True, check=positive)),
                                    doc="only pixel columns i0..i1-1 and rows j0..j1-1 (from 0)"),
@@ -846,10 +853,10 @@ def _trace(it, b, st):
     _warn_consider(it, b)
     camera = None
     if ("camera" in b or "aim" in b or "per_pixel" in b or "i0" in b or "spectral" in b or "cam_filter" in b
-            or "stokes" in b or "directions" in b or "correlated" in b):
+            or "stokes" in b or "directions" in b or "correlated" in b or "guide" in b):
         if "camera" not in b or "aim" not in b:
             raise error(b.span, "a camera-side TRACE needs both CAMERA obj and AIM obj",
-                        "TRACE CAMERA fpa AIM secondary [RAYS n] [SPECTRAL k] [DIRECTIONS m] [CORRELATED] "
+                        "TRACE CAMERA fpa AIM secondary [RAYS n] [SPECTRAL k] [DIRECTIONS m | GUIDE g] [CORRELATED] "
                         "[WINDOW i0 i1 j0 j1] [FILTER f] [STOKES]")
         if "stokes" in b and not s.polarization:
             raise error(b.span_of("stokes"), "TRACE CAMERA ... STOKES needs a polarized trace",
@@ -884,6 +891,10 @@ def _trace(it, b, st):
                         "into its own image: no SPECTRAL, and a DETECTOR without FILTERS",
                         "CORRELATED is for spectra (SPECTRUM OF the camera); band images: SPECTRAL k without it",
                         notes=[(cam.span, "the camera object")])
+        if b.get("guide", 0) > 0 and "directions" in b:
+            raise error(b.span_of("guide"), "TRACE CAMERA ... GUIDE cannot be combined with DIRECTIONS",
+                        "DIRECTIONS m stratifies the aim cone for spectra; GUIDE g draws band images' rays where they "
+                        "leave the instrument: give one of them")
         only = None
         if "cam_filter" in b:
             names = [f.upper() for f in filters]
@@ -896,7 +907,8 @@ def _trace(it, b, st):
             filters = [only]
         camera = {"camera": b["camera"], "aim": b["aim"], "sub": math.isqrt(int(b.get("per_pixel", 1))),
                   "window": win, "spectral": int(b.get("spectral", 0)), "filter": only, "stokes": "stokes" in b,
-                  "directions": int(b.get("directions", 0)), "correlated": "correlated" in b}
+                  "directions": int(b.get("directions", 0)), "correlated": "correlated" in b,
+                  "guide": int(b.get("guide", 0))}
         # the light's band irradiance at 1 AU (W/m2) per image of the camera, for I/F; set by the run, 0 here
         for fname in (filters or [""]):
             it.assign("CAMERA_SUN" + (f"_{fname}" if fname else ""), Quantity(0.0, NONE), b.span)

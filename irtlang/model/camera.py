@@ -180,3 +180,93 @@ def camera_scene(scene: M.Scene, params: dict, span: Span, analyzer: tuple = ())
                 lines=sum(mask), spectral=spectral, samples=spectral if spectral > 0 else sum(mask),
                 pixel_size=(px, py))
     return sc2, info
+
+
+#: a GUIDE's defaults: the uniform share mixed into every table (its largest weight factor is 1 / GUIDE_MIX), the
+#: tiles per side of the camera's start lattice, and the pilot's start points per tile and side
+GUIDE_MIX = 0.1
+GUIDE_TILES = 4
+GUIDE_PILOT_SUB = 4
+
+
+def _in_group(scene: M.Scene, group: str | None, top: str) -> bool:
+    while group is not None:
+        if group == top:
+            return True
+        group = scene.groups[group].parent
+    return False
+
+
+def instrument_objects(csc: M.Scene, camera: str, light: str) -> set:
+    """The keys of a camera scene's instrument objects: the camera's GROUP (with its subgroups), or for a camera
+    outside any group the objects without SCATTER specs (the light aside)."""
+    cam = csc.objects[camera]
+    if cam.group is not None:
+        return {k for k, o in csc.objects.items() if _in_group(csc, o.group, cam.group)}
+    return {k for k, o in csc.objects.items() if not o.scatter and o.name != light}
+
+
+def guide_pilot(csc: M.Scene, params: dict, info: dict, span: Span, target: tuple) -> tuple[M.Scene, dict]:
+    """The pilot trace of a camera's GUIDE (docs/tracer.md, "Camera-side images"): which of the aim cone's g x g
+    cells (the DIRECTIONS strata) lead out of the instrument to the scene, per tile of the camera's window.
+
+    The pilot scene keeps the instrument's objects (``instrument_objects``) as the camera trace has them
+    (mirrors, windows, baffles, the analyzers), without their SCATTER specs, and puts in place of everything
+    else one absorbing sphere, `target` ((world centre, radius): about the centre of the scene's other objects,
+    half as wide as they are far, so that what it measures is the instrument's transmission, not where the
+    scene's own edges fall in a tile).  A ray that reaches it is tallied by its cell and tile (its source
+    reports them as its start point: ``DETECTOR ... START``).  The pilot's source is the camera's own, over
+    t x t tiles of the window with GUIDE_PILOT_SUB^2 stratified points each, two rays per cell (DIRECTIONS g),
+    on one line (the mirrors' reflectance only scales the tally)."""
+    g = int(params["guide"])
+    src = csc.sources[0]
+    p = dict(src.params)
+    i0, i1, j0, j1 = info["window"]
+    t = max(1, min(GUIDE_TILES, i1 - i0, j1 - j0))
+    keep = instrument_objects(csc, params["camera"], info["light"])
+    L = csc.n_lines
+    cname = "CAMERA_GUIDE_TARGET"
+    while cname in csc.objects:
+        cname += "_"
+    centre, radius = target
+    catcher = M.SceneObject(
+        cname, (M.Surface("SPHERE", M.frozen_params({"radius": float(radius)}),
+                          M.Transform(T=tuple(float(x) for x in centre)), None, span),),
+        interface=M.Interface("absorb", None, "AIR", "AIR", span),
+        detector=M.Detector(g * g, t * t, span, filters=(("GUIDE", (1.0,) * L),), start=(0.0, g * g, 0.0, t * t)),
+        group=None, span=span)
+    objs = {k: M.replace(o, scatter=()) for k, o in csc.objects.items() if k in keep}
+    objs[cname] = catcher
+    resp = [max(r) for r in p["response"]]
+    line = max(range(L), key=lambda k: resp[k])
+    p.update(nx=t, ny=t, sub=GUIDE_PILOT_SUB, spectral=0, directions=g, correlated=False,
+             response=tuple((1.0,) if k == line else (0.0,) for k in range(L)), guide={"g": g, "t": t, "pilot": True})
+    pilot = M.replace(csc, objects=M.frozen_params(objs),
+                      sources=(M.replace(src, params=M.frozen_params(p)),))
+    return pilot, {"g": g, "t": t, "catcher": cname, "kept": len(keep)}
+
+
+def guide_tables(passed, g: int, t: int) -> tuple[tuple, dict]:
+    """The GUIDE's tables from its pilot's tally `passed` ((t^2, g^2): the flux that left the instrument per tile
+    and cell): per tile the pmf (1 - m) share / total + m / g^2 (m = GUIDE_MIX: a cell the pilot saw nothing
+    leave keeps a share, so the guided estimate stays unbiased wherever light can come from); a tile the pilot
+    saw nothing leave stays uniform.  Also the share of the directions that leave the instrument, uniform and
+    guided (the pilot's estimates, each cell's tally over its tile's largest: the cells wholly clear)."""
+    import numpy as np
+
+    passed = np.maximum(np.asarray(passed, float).reshape(t * t, g * g), 0.0)
+    tot = passed.sum(axis=1, keepdims=True)
+    pmf = np.where(tot > 0, (1 - GUIDE_MIX) * passed / np.where(tot > 0, tot, 1.0) + GUIDE_MIX / (g * g),
+                   1.0 / (g * g))
+    pmf /= pmf.sum(axis=1, keepdims=True)
+    top = passed.max(axis=1, keepdims=True)
+    frac = np.where(top > 0, passed / np.where(top > 0, top, 1.0), 0.0)
+    stats = {"uniform": float(frac.mean()), "guided": float((pmf * frac).sum(axis=1).mean())}
+    return tuple(pmf.ravel()), stats
+
+
+def with_guide(csc: M.Scene, pmf: tuple, g: int, t: int) -> M.Scene:
+    """The camera scene with its source drawing its directions from the GUIDE's tables."""
+    src = csc.sources[0]
+    p = dict(src.params, guide={"g": g, "t": t, "pmf": pmf})
+    return M.replace(csc, sources=(M.replace(src, params=M.frozen_params(p)),))
