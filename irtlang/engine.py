@@ -92,6 +92,10 @@ def check_trace_memory(steps, limits) -> list:
     return out
 
 
+#: TRACE CAMERA ... GUIDE: the pilot's seed, the same in every run and frame (its tables are cached per instrument)
+GUIDE_PILOT_SEED = 0x5EED_6D1DE
+
+
 class Engine:
     def __init__(self, folder: RunFolder, *, records: bool = True, history: bool = True, progress=None,
                  out=None, runner=None):
@@ -111,6 +115,7 @@ class Engine:
         self.collector = None   # irtlang.io.results.ResultsCollector: every image, spectrum and ledger (results.nc)
         self.seed = None        # irt run --seed N: the first TRACE's seed (trace_seed)
         self._seed0 = None      # the script's SEED at the first TRACE (with --seed)
+        self._guides = {}       # TRACE CAMERA ... GUIDE: the pilots' tables, by what the pilot traces
 
     def trace_seed(self, script_seed: int) -> int:
         """The seed a TRACE uses: the script's SEED, or with irt run --seed N, N plus the script's SEED's offset
@@ -246,7 +251,7 @@ class Engine:
             seed = self.trace_seed(csc.seed)
             if cam.get("guide"):
                 if k == 0:
-                    guide, gstats = self._camera_guide(csc, cam, info, seed, step)
+                    guide, gstats = self._camera_guide(csc, cam, info, step)
                 if guide is not None:
                     csc = with_guide(csc, *guide)
                     info["guide"] = gstats
@@ -315,14 +320,14 @@ class Engine:
                  f"{img.sum():.6g} W on the window, median relative standard error {med:.2%} on lit pixels; "
                  f"{time.perf_counter() - t0:.1f} s")
 
-    def _camera_guide(self, csc, cam, info, seed, step):
+    def _camera_guide(self, csc, cam, info, step):
         """TRACE CAMERA ... GUIDE g: the pilot trace through the instrument alone toward the scene
         (irtlang/model/camera.py, guide_pilot), on the camera trace's own kernel (its features as the
         pilot's floor: no compilation of its own), and the tables the camera's rays then draw their directions
         from: ((pmf, g, t), the pilot's shares of directions that reach the scene), or (None, None) where the
         scene outside the instrument is unbounded (the trace then goes unguided)."""
         from .compile.pack import MissingFeature, pack
-        from .model.camera import guide_pilot, guide_tables, instrument_objects
+        from .model.camera import guide_pilot, guide_tables, instrument_objects, pilot_key
         from .tracer import _object_bounds, run_trace
 
         t0 = time.perf_counter()
@@ -340,19 +345,28 @@ class Engine:
         centre = bc[big]
         radius = 0.5 * float(np.linalg.norm(centre - (pk.src_Th[0] + pk.src_Tl[0])))
         pilot, pinfo = guide_pilot(csc, cam, info, step.span, (centre, radius))
-        try:
-            res = run_trace(pilot, seed=(seed + (7 << 40)) % (1 << 63), level=step.params["level"], halt=0.0,
-                            features=pk.features)
-        except MissingFeature as e:
-            raise MissingCapability(e.span, e.what, e.capability) from None
         g, t = pinfo["g"], pinfo["t"]
-        img, _ = res.images[pinfo["catcher"]]
-        pmf, stats = guide_tables(img.sum(axis=0), g, t)
+        # the same instrument, window and scene centre give the same tables: the pilot has a seed of its own (not
+        # the trace's), so a cached table is the one the pilot would give again
+        key = pilot_key(pilot, step.params["level"])
+        hit = self._guides.get(key)
+        if hit is None:
+            try:
+                res = run_trace(pilot, seed=GUIDE_PILOT_SEED, level=step.params["level"], halt=0.0,
+                                features=pk.features)
+            except MissingFeature as e:
+                raise MissingCapability(e.span, e.what, e.capability) from None
+            img, _ = res.images[pinfo["catcher"]]
+            pmf, stats = guide_tables(img.sum(axis=0), g, t)
+            hit = self._guides[key] = (pmf, dict(stats, cells=g, tiles=t, pilot_rays=res.n_traced))
+            how = f"{res.n_traced:,} pilot rays through {pinfo['kept']} objects"
+        else:
+            how = "the pilot of an earlier trace: the same instrument and window"
+        pmf, stats = hit
         self.out(f"TRACE CAMERA {info['camera']}: GUIDE {g} x {g} cells of the aim cone in {t} x {t} tiles "
-                 f"({res.n_traced:,} pilot rays through {pinfo['kept']} objects): {stats['uniform']:.1%} of the "
-                 f"directions reach the scene, {stats['guided']:.1%} of the guided ones; "
-                 f"{time.perf_counter() - t0:.1f} s")
-        return (pmf, g, t), dict(stats, cells=g, tiles=t, pilot_rays=res.n_traced)
+                 f"({how}): {stats['uniform']:.1%} of the directions reach the scene, {stats['guided']:.1%} of "
+                 f"the guided ones; {time.perf_counter() - t0:.1f} s")
+        return (pmf, g, t), stats
 
     def _camera_sun_variables(self, csc, res, info, interp, step):
         """CAMERA_SUN[_filter]: the light's irradiance at 1 AU summed over each image's band (W/m2), weighted as

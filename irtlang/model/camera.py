@@ -246,6 +246,33 @@ def guide_pilot(csc: M.Scene, params: dict, info: dict, span: Span, target: tupl
     return pilot, {"g": g, "t": t, "catcher": cname, "kept": len(keep)}
 
 
+def _content(x):
+    """What a model value holds, without where it was written (its spans): a key that two scripts, or two lines
+    of one script, defining the same thing share."""
+    import dataclasses
+    from collections.abc import Mapping
+
+    if isinstance(x, Span):
+        return None
+    if dataclasses.is_dataclass(x) and not isinstance(x, type):
+        return (type(x).__name__,) + tuple((f.name, _content(getattr(x, f.name))) for f in dataclasses.fields(x)
+                                           if f.name not in ("span", "placed"))
+    if isinstance(x, Mapping):
+        return tuple((k, _content(v)) for k, v in x.items())
+    if isinstance(x, (tuple, list)):
+        return tuple(_content(v) for v in x)
+    return x
+
+
+def pilot_key(pilot: M.Scene, level: int) -> str:
+    """A GUIDE pilot's identity: what it traces (the instrument, its media and coatings, the target, the
+    source, the lines, LEVEL), not where the script wrote it; equal keys give equal tables."""
+    import hashlib
+
+    what = (pilot.objects, pilot.sources, pilot.groups, pilot.media, pilot.coatings, pilot.wavelengths_nm, level)
+    return hashlib.sha1(repr(_content(what)).encode()).hexdigest()
+
+
 def guide_tables(passed, g: int, t: int) -> tuple[tuple, dict]:
     """The GUIDE's tables from its pilot's tally `passed` ((t^2, g^2): the flux that left the instrument per tile
     and cell): per tile the pmf (1 - m) share / total + m / g^2 (m = GUIDE_MIX: a cell the pilot saw nothing

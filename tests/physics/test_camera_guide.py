@@ -170,3 +170,21 @@ def test_guide_errors(tmp_path, capsys, clause, message):
     f.write_text(_GROUP_SCENE.format(seed=1, guide=0).replace("GUIDE 0", clause))
     assert main(["run", str(f), "--out", str(tmp_path / "o")]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_guide_pilot_is_cached_and_seed_free(tmp_path, capsys):
+    """Two guided traces of one instrument in one run: the second reuses the first's pilot, and since the pilot
+    has a seed of its own its image is bitwise what a run with only that trace gives (plumbing, not physics)."""
+    one = _GROUP_SCENE.format(seed=9, guide=16)
+    k = one.index("EMITTING SPHERE")
+    tail = one[k:]
+    two = (one[:k].replace("SEED 9", "SEED 8") + tail.replace("'image.npy'", "'first.npy'") + "SEED 9\n" + tail)
+    (tmp_path / "one.inr").write_text(one)
+    (tmp_path / "two.inr").write_text(two)
+    a, _ = _run(tmp_path, "one", script=tmp_path / "one.inr")
+    capsys.readouterr()
+    b, _ = _run(tmp_path, "two", script=tmp_path / "two.inr")
+    out = capsys.readouterr().out
+    assert out.count("GUIDE 16 x 16") == 2 and "the pilot of an earlier trace" in out, out
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, np.load(tmp_path / "two" / "first.npy"))
