@@ -229,19 +229,31 @@ def guide_pilot(csc: M.Scene, params: dict, info: dict, span: Span, target: tupl
     while cname in csc.objects:
         cname += "_"
     centre, radius = target
+    groups = csc.groups
+    grp = csc.objects[params["camera"]].group
+    if grp is not None:
+        # traced in the camera's group's own frame (the group unplaced, the target brought into it, to 9 digits):
+        # an instrument placed anew (the flagship's telescope, every hour) gives the same pilot, bit for bit, so
+        # its tables come from the cache
+        G = csc.world_transform(M.SceneObject("", (), group=grp))
+        d = [float(c) - G.T[k] for k, c in enumerate(centre)]
+        centre = tuple(float(f"{sum(G.R[3 * k + i] * d[k] for k in range(3)):.9g}") for i in range(3))
+        radius = float(f"{float(radius):.9g}")
+        groups = M.frozen_params({k: (M.replace(v, placement=M.IDENTITY, parent=None) if k == grp else v)
+                                  for k, v in groups.items() if _in_group(csc, k, grp)})
     catcher = M.SceneObject(
         cname, (M.Surface("SPHERE", M.frozen_params({"radius": float(radius)}),
                           M.Transform(T=tuple(float(x) for x in centre)), None, span),),
         interface=M.Interface("absorb", None, "AIR", "AIR", span),
         detector=M.Detector(g * g, t * t, span, filters=(("GUIDE", (1.0,) * L),), start=(0.0, g * g, 0.0, t * t)),
-        group=None, span=span)
+        group=grp, span=span)
     objs = {k: M.replace(o, scatter=()) for k, o in csc.objects.items() if k in keep}
     objs[cname] = catcher
     resp = [max(r) for r in p["response"]]
     line = max(range(L), key=lambda k: resp[k])
     p.update(nx=t, ny=t, sub=GUIDE_PILOT_SUB, spectral=0, directions=g, correlated=False,
              response=tuple((1.0,) if k == line else (0.0,) for k in range(L)), guide={"g": g, "t": t, "pilot": True})
-    pilot = M.replace(csc, objects=M.frozen_params(objs),
+    pilot = M.replace(csc, objects=M.frozen_params(objs), groups=groups,
                       sources=(M.replace(src, params=M.frozen_params(p)),))
     return pilot, {"g": g, "t": t, "catcher": cname, "kept": len(keep)}
 

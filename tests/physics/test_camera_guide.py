@@ -188,3 +188,57 @@ def test_guide_pilot_is_cached_and_seed_free(tmp_path, capsys):
     assert out.count("GUIDE 16 x 16") == 2 and "the pilot of an earlier trace" in out, out
     assert np.array_equal(a, b)
     assert not np.array_equal(a, np.load(tmp_path / "two" / "first.npy"))
+
+
+_MOVED_SCENE = """UNITS M
+WAVELENGTHS 550 NM
+SEED 9
+MODEL paint LAMBERTIAN 0.6
+GROUP target
+  SURFACE
+    SPHERE 0 0 1e5 100
+  OBJECT ball
+    INTERFACE ABSORB
+    SCATTER MODEL paint
+END GROUP
+GROUP telescope
+  SURFACE
+    CONIC Z 0 RADIUS 2 CONIC -1 ANNULUS 0.06 0.25
+  OBJECT primary
+    INTERFACE REFLECT
+  SURFACE
+    CONIC Z 0.8 RADIUS 0.5 CONIC -2.25 DISK 0.055
+  OBJECT secondary
+    INTERFACE REFLECT
+  SURFACE
+    PLANE Z (-0.2 - 0.00025) RECT 0.006 0.006
+  OBJECT fpa
+    INTERFACE ABSORB
+    DETECTOR PIXELS 24 24
+END GROUP
+LEVEL 50
+HALT 0.01
+DO k = 0, 1
+  PLACE target AT (10 * k) 0 0
+  PLACE telescope AT (10 * k) 0 0 AIM (10 * k) 0 1
+  EMITTING SPHERE (10 * k + 1e9 * sin(60)) 0 (1e5 - 1e9 * cos(60)) 1e6 RAYS 1
+  FLUX TOTAL 1e18 W
+  TRACE CAMERA fpa AIM secondary RAYS 64 GUIDE 16
+  EXPORT fpa 'image_{k}.npy'
+END DO
+"""
+
+
+def test_guide_pilot_is_traced_in_the_instruments_frame(tmp_path, capsys):
+    """The flagship places its telescope anew every hour.  The pilot is traced in the camera's group's own frame
+    (the target brought into it), so the same telescope placed elsewhere, with the scene where it was relative to
+    it, reuses the first pilot; the two images (the same seed) agree within their errors (plumbing, not
+    physics)."""
+    f = tmp_path / "moved.inr"
+    f.write_text(_MOVED_SCENE)
+    assert main(["run", str(f), "--out", str(tmp_path / "o")]) == 0
+    out = capsys.readouterr().out
+    assert out.count("GUIDE 16 x 16") == 2 and "the pilot of an earlier trace" in out, out
+    (a, ae), (b, be) = ((np.load(tmp_path / "o" / f"image_{k}.npy"), np.load(tmp_path / "o" / f"image_{k}.stderr.npy"))
+                        for k in (0, 1))
+    _agree(a, ae, b, be, "moved telescope")
