@@ -217,7 +217,9 @@ def guide_pilot(csc: M.Scene, params: dict, info: dict, span: Span, target: tupl
     scene's own edges fall in a tile).  A ray that reaches it is tallied by its cell and tile (its source
     reports them as its start point: ``DETECTOR ... START``).  The pilot's source is the camera's own, over
     t x t tiles of the window with GUIDE_PILOT_SUB^2 stratified points each, two rays per cell (DIRECTIONS g),
-    on one line (the mirrors' reflectance only scales the tally)."""
+    on one line (the mirrors' reflectance only scales the tally).  A camera in a GROUP is traced in that group's
+    own frame (the group unplaced, the target brought into it to 9 digits), so the same instrument placed anew
+    gives the same pilot, and the same key (``pilot_key``)."""
     g = int(params["guide"])
     src = csc.sources[0]
     p = dict(src.params)
