@@ -190,18 +190,7 @@ def test_guide_pilot_is_cached_and_seed_free(tmp_path, capsys):
     assert not np.array_equal(a, np.load(tmp_path / "two" / "first.npy"))
 
 
-_MOVED_SCENE = """UNITS M
-WAVELENGTHS 550 NM
-SEED 9
-MODEL paint LAMBERTIAN 0.6
-GROUP target
-  SURFACE
-    SPHERE 0 0 1e5 100
-  OBJECT ball
-    INTERFACE ABSORB
-    SCATTER MODEL paint
-END GROUP
-GROUP telescope
+_TELESCOPE = """GROUP telescope
   SURFACE
     CONIC Z 0 RADIUS 2 CONIC -1 ANNULUS 0.06 0.25
   OBJECT primary
@@ -216,7 +205,20 @@ GROUP telescope
     INTERFACE ABSORB
     DETECTOR PIXELS 24 24
 END GROUP
-LEVEL 50
+"""
+
+_MOVED_SCENE = """UNITS M
+WAVELENGTHS 550 NM
+SEED 9
+MODEL paint LAMBERTIAN 0.6
+GROUP target
+  SURFACE
+    SPHERE 0 0 1e5 100
+  OBJECT ball
+    INTERFACE ABSORB
+    SCATTER MODEL paint
+END GROUP
+{telescope}LEVEL 50
 HALT 0.01
 DO k = 0, 1
   PLACE target AT (10 * k) 0 0
@@ -226,7 +228,7 @@ DO k = 0, 1
   TRACE CAMERA fpa AIM secondary RAYS 64 GUIDE 16
   EXPORT fpa 'image_{k}.npy'
 END DO
-"""
+""".replace("{telescope}", _TELESCOPE)
 
 
 def test_guide_pilot_is_traced_in_the_instruments_frame(tmp_path, capsys):
