@@ -19,6 +19,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from irtlang.core.stats import lit_pixels  # noqa: E402
+
 
 def _save(fig, p: Path, dpi: int) -> Path:
     fig.tight_layout()
@@ -46,7 +48,7 @@ def frame_error(run: Path, out: Path) -> Path:
     img = np.load(f)[0]
     se = np.load(f.with_name(f.stem + ".stderr.npy"))[0]
     rel = np.where(img > 0, se / np.where(img > 0, img, 1), np.nan)
-    lit = img > 0.02 * img.max()
+    lit = lit_pixels(img)
     fig, ax = plt.subplots(1, 2, figsize=(11, 4.6))
     a = ax[0].imshow(img * 1e12, origin="lower", cmap="gray", vmin=0,
                      vmax=np.percentile(img[lit] * 1e12, 99.5))   # a few bright outliers would set the scale
@@ -55,7 +57,8 @@ def frame_error(run: Path, out: Path) -> Path:
     b = ax[1].imshow(np.where(lit, rel * 100, np.nan), origin="lower", cmap="viridis", vmin=0,
                      vmax=np.nanpercentile(rel[lit] * 100, 99))
     fig.colorbar(b, ax=ax[1], label="relative standard error (%)")
-    ax[1].set_title(f"relative standard error, lit disk (median {np.nanmedian(rel[lit]):.1%})", fontsize=10)
+    ax[1].set_title(f"relative standard error, lit disk (median {np.nanmedian(rel[lit]):.1%}, "
+                    f"rms {np.sqrt(np.nanmean(rel[lit] ** 2)):.1%})", fontsize=10)
     for x in ax:
         x.set_xlabel("pixel (window column)")
         x.set_ylabel("pixel (window row)")

@@ -28,7 +28,7 @@ from .io.manifest import RunFolder
 from .core.diagnostics import MissingCapability, RuntimeFailure, Span  # noqa: F401  (re-exported)
 from .core.units import Quantity, UNITS, LENGTH, POWER
 from .model import scene as M
-from .core.stats import result_standard_error, total_standard_error
+from .core.stats import lit_pixels, result_standard_error, total_standard_error
 from .tracer import standard_error
 
 
@@ -309,15 +309,20 @@ class Engine:
         self.folder.info["rays_traced"] = self.rays_traced
         i0, i1, j0, j1 = info["window"]
         rel = np.divide(np.sqrt(var), img, out=np.full_like(img, np.inf), where=img > 0)
-        lit = img > 0.02 * img.max(axis=(1, 2), keepdims=True) if img.size else img > 0
+        lit = lit_pixels(img) if img.size else img > 0
         med = float(np.median(rel[lit])) if lit.any() else float("nan")
+        # and their root mean square: with pairs a pixel's variance comes from a few pairs, unbiased but itself
+        # noisy, so the median of the per-pixel errors sits below the error they estimate (about 0.68 of it with
+        # one pair's worth; docs/tracer.md, "Standard errors per pixel"); the mean of their squares does not
+        rms = float(np.sqrt(np.mean(rel[lit] ** 2))) if lit.any() else float("nan")
         how = (f"{info['rays_per_pixel_line']} x {info['spectral']} per pixel, lines drawn from {info['lines']}"
                if info["spectral"] else f"{info['rays_per_pixel_line']} per pixel and line, {info['lines']} lines")
         if cam.get("stokes"):
             how += "; six traces behind ideal analyzers: I, Q, U, V"
         self.out(f"TRACE CAMERA {info['camera']}: {res.n_traced:,} camera rays ({how}, "
                  f"pixels {i0}..{i1 - 1} x {j0}..{j1 - 1}); "
-                 f"{img.sum():.6g} W on the window, median relative standard error {med:.2%} on lit pixels; "
+                 f"{img.sum():.6g} W on the window, median relative standard error {med:.2%} on lit pixels "
+                 f"(root mean square {rms:.2%}); "
                  f"{time.perf_counter() - t0:.1f} s")
 
     def _camera_guide(self, csc, cam, info, step):

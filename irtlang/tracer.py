@@ -32,7 +32,7 @@ class TraceResult:
     interrupted: bool = False
     passes: int = 1
     stokes: dict | None = None  # POLARIZATION: detector name -> (sum (4, planes, ny, nx) of I, Q, U, V, sum2)
-    paired: bool = False        # a camera trace with DIRECTIONS: the sums of squares are stratified pairs' (a - b)^2
+    paired: bool = False        # camera DIRECTIONS or paired SPECTRAL: the sums of squares are pairs' (a - b)^2
     correlated: bool = False    # a CORRELATED camera trace: its lines share random numbers (total_standard_error)
 
     @property

@@ -34,7 +34,7 @@ from ..plugins.surfaces import CODES as SURFACE_CODES, REGISTRY as SURFACES
 
 SK_PLANE, SK_CONIC, SK_SPHERE, SK_ELLIPSOID = (SURFACE_CODES[k] for k in ("PLANE", "CONIC", "SPHERE", "ELLIPSOID"))
 # N_TERMINAL_ROWS: EMITTED, ESCAPED, HALTED, LOST, the ledger's last rows
-from ..kernels.layout import (N_SRC_PAR, N_TERMINAL_ROWS, SP_CORRELATED, SP_DIRECTIONS, SP_ELLIPSE,  # noqa: E402
+from ..kernels.layout import (N_SRC_PAR, N_TERMINAL_ROWS, SP_CORRELATED, SP_DIRECTIONS, SP_ELLIPSE, SP_PAIRED,  # noqa: E402
                               SP_GUIDE, SP_GUIDE_ROW, SP_GUIDE_T, SP_PILOT)
 
 
@@ -841,6 +841,7 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
                 npts += len(rows)
                 K = int(p["spectral"])
                 par[9], par[10] = len(rows), K
+                par[SP_PAIRED] = 1.0 if p.get("paired") else 0.0   # K / 2 strata, two rays each (model.camera)
                 out["src_random"][i] = SAMPLE_SPECTRAL
                 wl = np.where(pmf > 0, wl / np.where(pmf > 0, pmf, 1.0) / K, 0.0)
                 nl = K

@@ -15,8 +15,8 @@ def standard_error(s1, s2, n):
 
 def result_standard_error(res, s1, s2):
     """A trace result's standard error of a total with sums s1 and s2: `standard_error` over its source rays,
-    or for stratified pairs (a camera trace with DIRECTIONS: res.paired) sqrt(s2), s2 being the sum over pairs
-    of (a - b)^2, an unbiased estimate of the stratified total's variance."""
+    or for stratified pairs (a camera trace with DIRECTIONS or a paired SPECTRAL: res.paired) sqrt(s2), s2 being
+    the sum over pairs of (a - b)^2, an unbiased estimate of the stratified total's variance."""
     if getattr(res, "paired", False):
         return np.sqrt(np.maximum(np.asarray(s2, float), 0.0))
     return standard_error(s1, s2, res.n_traced)
@@ -32,3 +32,18 @@ def total_standard_error(res, s1, s2):
     if getattr(res, "correlated", False):
         return float(np.sum(result_standard_error(res, s1, s2)))
     return float(result_standard_error(res, float(s1.sum()), float(s2.sum())))
+
+
+def lit_pixels(img, frac: float = 0.02):
+    """The pixels of an image (..., ny, nx) above `frac` of its bright level, per image: the lit disk of a
+    planet's frame.  The bright level is the 99th percentile of the image's non-zero pixels, not its maximum:
+    one Monte Carlo outlier (a rare path of large weight, 10-20 times the disk's brightest pixels in an Earth
+    frame) would otherwise raise the threshold above the dark ocean and leave half the disk out."""
+    img = np.asarray(img, float)
+    flat = img.reshape((-1,) + img.shape[-2:]) if img.ndim >= 2 else img.reshape(1, 1, -1)
+    out = np.zeros(flat.shape, bool)
+    for k, im in enumerate(flat):
+        pos = im[im > 0]
+        if pos.size:
+            out[k] = im > frac * np.percentile(pos, 99)
+    return out.reshape(img.shape)

@@ -74,8 +74,10 @@ SAMPLE_LATTICE, SAMPLE_RANDOM, SAMPLE_STRATIFIED, SAMPLE_SPECTRAL = range(4)
 #: a camera's GUIDE: g (14: g x g cells of the aim cone, as the DIRECTIONS strata), t (15: t x t tiles of its start
 #: lattice, each with its own table), the first row of the tables in ``Sources.pts`` after the source's
 #: ``pts_off`` (16: t^2 tables of g^2 rows (cdf, 1 / (g^2 pmf))); 1 for the guide's pilot (17: a DIRECTIONS
-#: camera whose rays report (stratum + 1/2, tile + 1/2) as their start point, for a DETECTOR ... START tally)
-N_SRC_PAR = 18
+#: camera whose rays report (stratum + 1/2, tile + 1/2) as their start point, for a DETECTOR ... START tally);
+#: 1 for a camera's paired spectral samples (18: SPECTRAL k, k even, without DIRECTIONS: k / 2 strata of the
+#: bands' cumulative weight, two independent rays in each, consecutive ids)
+N_SRC_PAR = 19
 SP_DIRECTIONS = 11
 SP_ELLIPSE = 12
 SP_CORRELATED = 13
@@ -83,6 +85,7 @@ SP_GUIDE = 14
 SP_GUIDE_T = 15
 SP_GUIDE_ROW = 16
 SP_PILOT = 17
+SP_PAIRED = 18
 
 # ---------------------------------------------------------------------------------------------- tallies
 #: ledger columns

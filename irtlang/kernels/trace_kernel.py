@@ -37,7 +37,7 @@ from .layout import (AP_NONE, C_ABS, C_INC, C_REF, C_SCA, C_TRA, DIR_COLLIMATED,
                      FL_REFLECTED, FL_SCATTERED, FL_TRANSMITTED, IF_ABSORB, IF_FRESNEL, IF_METAL,
                      IF_POLARIZER, IF_REFLECT, IF_RETARDER, IF_SPLIT, PHASE_HG, PHASE_RAYLEIGH,
                      SAMPLE_SPECTRAL, SF_AP, SP_CORRELATED, SP_DIRECTIONS, SP_GUIDE, SP_GUIDE_ROW, SP_GUIDE_T,
-                     SP_PILOT, SF_BS, SF_CL, SF_HOLE, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
+                     SP_PAIRED, SP_PILOT, SF_BS, SF_CL, SF_HOLE, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
                      SI_AXIS, SI_CLEND, SI_FAM, SI_FNEXT, SI_FOUT, SI_FPREV, SI_KIND, SI_OBJ, SPEC_CLASS_MAP,
                      SPEC_FRACTION_MAP, SPEC_GATE, SPEC_MODEL)
 from .layout import Detectors, Media, Scatter, Sources, Surfaces
@@ -469,7 +469,16 @@ def _gen(i, total, seed, SRC, o_bc, o_br, src_dw):
         # a camera's spectral samples: slot k of K draws its line from the bands' weights, stratified over
         # their cumulative distribution (rows (cdf, line) in src_pts; src_w holds weight / (pmf K))
         ul, _ul = uniform2(seed, i, 0, 2)
-        u = (slot + ul) / src_par[s, 10]
+        if src_par[s, SP_PAIRED] > 0.0:
+            # paired: K / 2 strata, two independent rays in each (ids 2p and 2p + 1; p = stratum * n + point),
+            # so the tallies take the variance from the pairs' differences
+            pr = j >> 1
+            pm = 1 + (j & 1)
+            slot = pr // n
+            q = pr - slot * n
+            u = (slot + ul) / (0.5 * src_par[s, 10])
+        else:
+            u = (slot + ul) / src_par[s, 10]
         r0 = src_pts_off[s]
         lo = 0
         hi = int(src_par[s, 9]) - 1
@@ -1754,8 +1763,31 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                 _close_source_ray(inc_sq, c, line, acc, touched, nt)
             if ndep - dep0 > 1 and ndep <= cap:
                 ndep = _merge_deposits(dep_idx, dep_w, dep_d, c, dep0, ndep)
+                if pm == 2:
+                    # one group: reduce_batch squares the pair's difference per image, summed over its lines
+                    for q in range(dep0 + 1, ndep):
+                        dep_idx[c, q] = -dep_idx[c, q] - 1
         dep_n[c] = ndep if ndep <= cap else -1
         rec_n[c] = nrec if nrec <= rcap else -1
+
+
+@numba.njit(cache=True, inline="always")
+def _group_add(gt, gv, ng, t, v):
+    """reduce_batch's running sums of one deposit group: v added to image element t's.  Returns (gt, gv, ng)."""
+    for g in range(ng):
+        if gt[g] == t:
+            gv[g] += v
+            return gt, gv, ng
+    if ng == gt.shape[0]:
+        gt2 = np.empty(2 * ng + 8, np.int64)
+        gv2 = np.empty(2 * ng + 8)
+        gt2[:ng] = gt[:ng]
+        gv2[:ng] = gv[:ng]
+        gt = gt2
+        gv = gv2
+    gt[ng] = t
+    gv[ng] = v
+    return gt, gv, ng + 1
 
 
 @numba.njit(cache=True)
@@ -1764,14 +1796,27 @@ def reduce_batch(led, inc_sq, dep_idx, dep_w, dep_d, dep_n, ledger, ledger_sq, i
     """Add a batch's chunk tallies in chunk order (deterministic for any thread count).  A deposit's index is
     d_lo[d] + line * npix + pixel; a detector with filters (d_nb[d] = B > 0) adds w T[line, b] to each filter
     image b (its (L, B) matrix at d_fm[d_fm_off[d]:]), else the deposit goes to the line's own image.  The
-    squares are dep_d's: a source ray's deposit, or a stratified pair's difference (camera DIRECTIONS)."""
+    squares are dep_d's: a source ray's deposit, or a stratified pair's difference (camera DIRECTIONS, a
+    paired SPECTRAL).  A pair whose deposits lie on several lines is one group, its later deposits' indices
+    stored as -(index + 1): the square is then of the group's sum in each image it reaches (in a filter image
+    the pair's difference a T(line_a) - b T(line_b), not a^2 T^2 + b^2 T^2)."""
     nd = d_lo.shape[0]
     L = led.shape[3]
+    gt = np.empty(8, np.int64)
+    gv = np.empty(8)
+    ng = 0
     for c in range(led.shape[0]):
         ledger += led[c]
         ledger_sq += inc_sq[c]
-        for q in range(dep_n[c]):
+        nq = dep_n[c]
+        for q in range(nq):
             k = dep_idx[c, q]
+            if k < 0:
+                k = -k - 1
+                grouped = True
+            else:
+                grouped = q + 1 < nq and dep_idx[c, q + 1] < 0
+                ng = 0
             w = dep_w[c, q]
             e = dep_d[c, q]
             d = nd - 1
@@ -1781,7 +1826,10 @@ def reduce_batch(led, inc_sq, dep_idx, dep_w, dep_d, dep_n, ledger, ledger_sq, i
             B = d_nb[d]
             if B == 0:
                 img[i_off[d] + rel] += w
-                img_sq[i_off[d] + rel] += e * e
+                if grouped:
+                    gt, gv, ng = _group_add(gt, gv, ng, i_off[d] + rel, e)
+                else:
+                    img_sq[i_off[d] + rel] += e * e
             else:
                 # a polarized trace's deposits run over (Stokes component, line): component k's filter
                 # images follow component k - 1's
@@ -1797,4 +1845,10 @@ def reduce_batch(led, inc_sq, dep_idx, dep_w, dep_d, dep_n, ledger, ledger_sq, i
                         wb = w * fb
                         eb = e * fb
                         img[i_off[d] + (comp * B + b) * npx + pix] += wb
-                        img_sq[i_off[d] + (comp * B + b) * npx + pix] += eb * eb
+                        if grouped:
+                            gt, gv, ng = _group_add(gt, gv, ng, i_off[d] + (comp * B + b) * npx + pix, eb)
+                        else:
+                            img_sq[i_off[d] + (comp * B + b) * npx + pix] += eb * eb
+            if grouped and not (q + 1 < nq and dep_idx[c, q + 1] < 0):
+                for g in range(ng):
+                    img_sq[gt[g]] += gv[g] * gv[g]

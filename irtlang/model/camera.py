@@ -15,7 +15,10 @@ the other way, as renderers do (docs/tracer.md, "Camera-side images"):
   entrance pupil, aimed at a planet, so gives the disk-integrated spectrum (``SPECTRUM OF`` the camera);
 * spectral sampling: with ``SPECTRAL k`` each of the s x s points carries k rays whose lines are drawn from the
   images' weights (light radiance x filter x QE, each image an equal share), stratified over their cumulative
-  distribution, each weighted by 1 / (k pmf); without it every line the detector sees gets its own rays;
+  distribution, each weighted by 1 / (k pmf); without it every line the detector sees gets its own rays.  An
+  even k (without DIRECTIONS) is paired: k / 2 strata of the cumulative weight with two independent rays each
+  (independent points in the same sub-cell, lines in the same stratum, their own directions), so the pixels'
+  variances come from the pairs' differences, per filter image (``spectral_paired``);
 * every scattering event sends one next-event ray toward the light (the one ``EMITTING SPHERE`` of the trace),
   whatever the script's ``TOWARD`` targets were, then the path goes on by sampling the scatter model, with
   Russian roulette (multiple scattering);
@@ -45,6 +48,14 @@ import math
 
 from ..core.diagnostics import Span, error
 from . import scene as M
+
+
+def spectral_paired(spectral: int, directions: int) -> bool:
+    """Whether a camera's spectral samples come in pairs: ``SPECTRAL k`` with k even and no ``DIRECTIONS`` (whose
+    own pairs already share a spectral stratum).  Then the k rays of a point are k / 2 strata of the images'
+    cumulative weight, two independent rays in each, and a pixel's variance is the sum over its pairs of the
+    squared difference, which (unlike the spread between rays) leaves out the spread between the strata."""
+    return spectral >= 2 and spectral % 2 == 0 and directions == 0
 
 
 def camera_scene(scene: M.Scene, params: dict, span: Span, analyzer: tuple = ()) -> tuple[M.Scene, dict]:
@@ -169,12 +180,14 @@ def camera_scene(scene: M.Scene, params: dict, span: Span, analyzer: tuple = ())
         extent=extent, nx=i1 - i0, ny=j1 - j0, sub=params["sub"], side=side, aim=params["aim"], frame=frame,
         pixel_area=px * py * (math.pi / 4 if ellipse else 1.0), ellipse=ellipse, light_radius=lp["radius"],
         light_flux=light.flux, response=response, spectral=spectral, directions=int(params.get("directions") or 0),
-        correlated=bool(params.get("correlated")))),
+        correlated=bool(params.get("correlated")),
+        paired=spectral_paired(spectral, int(params.get("directions") or 0)))),
         cam.group, light.flux, span)
     sc2 = M.replace(scene, objects=M.frozen_params(new_objs), media=M.frozen_params(media), sources=(src,))
     m = int(params.get("directions") or 0)
     info = dict(camera=cam.name, light=lname, window=(i0, i1, j0, j1),
-                rays_per_pixel_line=params["sub"] ** 2 * (2 * m * m if m else 1), paired=m > 0, directions=m,
+                rays_per_pixel_line=params["sub"] ** 2 * (2 * m * m if m else 1),
+                paired=m > 0 or spectral_paired(spectral, m), directions=m,
                 correlated=bool(params.get("correlated")),
                 side=side,
                 lines=sum(mask), spectral=spectral, samples=spectral if spectral > 0 else sum(mask),
@@ -253,7 +266,7 @@ def guide_pilot(csc: M.Scene, params: dict, info: dict, span: Span, target: tupl
     objs[cname] = catcher
     resp = [max(r) for r in p["response"]]
     line = max(range(L), key=lambda k: resp[k])
-    p.update(nx=t, ny=t, sub=GUIDE_PILOT_SUB, spectral=0, directions=g, correlated=False,
+    p.update(nx=t, ny=t, sub=GUIDE_PILOT_SUB, spectral=0, directions=g, correlated=False, paired=False,
              response=tuple((1.0,) if k == line else (0.0,) for k in range(L)), guide={"g": g, "t": t, "pilot": True})
     pilot = M.replace(csc, objects=M.frozen_params(objs), groups=groups,
                       sources=(M.replace(src, params=M.frozen_params(p)),))
