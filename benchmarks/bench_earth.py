@@ -217,10 +217,10 @@ def _band_frames(out: Path) -> dict:
 
 def image_true_error(configs=TRUE_ERROR_CONFIGS) -> list:
     """The band images' true per-pixel error: what two runs with different seeds disagree by.  Per lit pixel
-    (the mean image above 2 % of its bright level, irtlang.core.stats.lit_pixels) |a - b| / sqrt(2) over the mean of a and b; its median over the
-    lit pixels / 0.6745 (the median of |N(0, 1)|), beside the median printed error (the per-pixel estimate:
-    from the pairs' differences with an even `spectral_samples`, else conservative, counting the spread between
-    the stratified spectral samples).  The wall time is the first
+    (the mean image above 2 % of its bright level, irtlang.core.stats.lit_pixels) |a - b| / sqrt(2) over the
+    mean of a and b; its median over the lit pixels / 0.6745 (the median of |N(0, 1)|), beside the median
+    printed error (the per-pixel estimate: from the pairs' differences with an even `spectral_samples`, else
+    conservative, counting the spread between the stratified spectral samples).  The wall time is the first
     run's whole `irt run` (forward and pupil traces made negligible).  `calibration` is how the printed errors
     explain that scatter: sqrt(sum (a - b)^2 / sum (se_a^2 + se_b^2)) over the lit pixels, each relative to its
     mean (1: honest; below 1: the printed errors are too large).  It is the sums' ratio, not the median of the
@@ -320,8 +320,8 @@ def report(r: dict) -> str:
     if im:
         lines += ["Band images of one frame: median (root mean square) per-pixel relative standard error on the lit "
                   "disk (the worst of the hour's frame), empty lit pixels, wall time of the whole `irt run` and the "
-                  "figure of merit 1/(err^2 t) at 550 nm, err the root mean square; camera-side (`TRACE CAMERA`, rays per pixel and band line) against the "
-                  "forward trace's own images (target: <= 2 % at 450, 550 and 650 nm, no empty lit pixel):", "",
+                  "figure of merit 1/(err^2 t) at 550 nm, err the root mean square; camera-side (`TRACE CAMERA`, "
+                  "rays per pixel and band line) against the forward trace's own images (target: <= 2 % at 450, 550 and 650 nm, no empty lit pixel):", "",
                   "| estimator | rays | wall s | 450 nm | 550 nm | 650 nm | empty lit pixels | FOM (550) |",
                   "|---|---|---|---|---|---|---|---|"]
         rows = [("camera-side", x) for x in im["camera"]] + ([("forward", im["forward"])] if im["forward"] else [])

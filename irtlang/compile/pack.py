@@ -34,8 +34,8 @@ from ..plugins.surfaces import CODES as SURFACE_CODES, REGISTRY as SURFACES
 
 SK_PLANE, SK_CONIC, SK_SPHERE, SK_ELLIPSOID = (SURFACE_CODES[k] for k in ("PLANE", "CONIC", "SPHERE", "ELLIPSOID"))
 # N_TERMINAL_ROWS: EMITTED, ESCAPED, HALTED, LOST, the ledger's last rows
-from ..kernels.layout import (N_SRC_PAR, N_TERMINAL_ROWS, SP_CORRELATED, SP_DIRECTIONS, SP_ELLIPSE, SP_PAIRED,  # noqa: E402
-                              SP_GUIDE, SP_GUIDE_ROW, SP_GUIDE_T, SP_PILOT)
+from ..kernels.layout import (N_SRC_PAR, N_TERMINAL_ROWS, SP_CORRELATED, SP_DIRECTIONS, SP_ELLIPSE,  # noqa: E402
+                              SP_GUIDE, SP_GUIDE_ROW, SP_GUIDE_T, SP_PAIRED, SP_PILOT)
 
 
 class MissingFeature(Exception):
