@@ -128,8 +128,8 @@ def test_paired_spectral_standard_errors_are_exact(tmp_path):
     scatter between two seeds matches them both ways (the variance ratio 1 within 5 sigma).  Measured while
     writing: 1.16 +- 0.13 and 1.00 +- 0.13 per filter; the unpaired SPECTRAL 3 gave 0.62 and 0.54, the spread
     between the spectral strata counted as noise.  The group squares matter here: a pair's two rays land on
-    different lines of one filter image, and squaring them apart (a^2 T^2 + b^2 T^2) would count the same
-    spread again."""
+    different lines of one filter image, and squaring them apart (a^2 T_a^2 + b^2 T_b^2, whose expectation is
+    2 E[x^2], not 2 var x) would count the stratum's mean as noise."""
     _filter_tables(tmp_path)
     runs = []
     for seed in (11, 12):
