@@ -72,7 +72,8 @@ def test_lambert_sphere_closed_form(tmp_path, mode, scene, albedo):
     ("slab", 0), ("shell", 0), ("slab", 2),
 ])
 def test_camera_agrees_with_forward(tmp_path, scene, spectral):
-    """spectral = 2: each camera ray position sends 2 rays whose lines are drawn from the lines' weights."""
+    """spectral = 2: each camera ray position sends a pair of rays whose lines are drawn from the lines' weights
+    (one stratum: the paired SPECTRAL, its errors from the pair's difference)."""
     cam, cse = _run(tmp_path, "cam", mode="camera", scene=scene, spectral_k=spectral)
     fwd, fse = _run(tmp_path, "fwd", mode="forward", scene=scene)
     _same_image(cam, cse, fwd, fse, scene)
