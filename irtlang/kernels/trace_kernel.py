@@ -430,33 +430,19 @@ def _gen(i, total, seed, SRC, o_bc, o_br, src_dw):
     difference); key is the ray's random stream: i, or for a CORRELATED camera (par[SP_CORRELATED] = 1) the id
     of its start point's first line, so that every line of a start point draws the same numbers.  Ids past
     `total` start another pass over the sources (TRACE UNTIL ERROR) with fresh random numbers."""
-    src_kind = SRC.kind
-    src_dir = SRC.dir
-    src_par = SRC.par
-    src_R = SRC.R
-    src_Th = SRC.Th
-    src_Tl = SRC.Tl
-    src_n = SRC.n
-    src_off = SRC.off
-    src_w = SRC.w
-    src_random = SRC.random
-    src_toward = SRC.toward
-    src_pts = SRC.pts
-    src_pts_off = SRC.pts_off
-    src_lmap = SRC.lmap
     ii = i if i < total else i % total          # (integer divisions cost ~40 cycles: only when needed)
     s = 0
-    while s + 1 < src_off.shape[0] and ii >= src_off[s + 1]:
+    while s + 1 < SRC.off.shape[0] and ii >= SRC.off[s + 1]:
         s += 1
-    j = ii - src_off[s]
-    n = src_n[s]
+    j = ii - SRC.off[s]
+    n = SRC.n[s]
     slot = 0 if j < n else j // n
     q = j - slot * n
-    if src_par[s, SP_CORRELATED] > 0.0:
+    if SRC.par[s, SP_CORRELATED] > 0.0:
         i -= slot * n
     pm = 0
     st = 0
-    nd = int(src_par[s, SP_DIRECTIONS])
+    nd = int(SRC.par[s, SP_DIRECTIONS])
     if nd > 0:
         # DIRECTIONS m: 2 m^2 rays per start point, two in each stratum (consecutive ids: the pair)
         per = 2 * nd * nd
@@ -465,74 +451,74 @@ def _gen(i, total, seed, SRC, o_bc, o_br, src_dw):
         st = r >> 1
         pm = 1 + (r & 1)
         q = pos
-    if src_random[s] == SAMPLE_SPECTRAL:
+    if SRC.random[s] == SAMPLE_SPECTRAL:
         # a camera's spectral samples: slot k of K draws its line from the bands' weights, stratified over
-        # their cumulative distribution (rows (cdf, line) in src_pts; src_w holds weight / (pmf K))
+        # their cumulative distribution (rows (cdf, line) in SRC.pts; SRC.w holds weight / (pmf K))
         ul, _ul = uniform2(seed, i, 0, 2)
-        if src_par[s, SP_PAIRED] > 0.0:
+        if SRC.par[s, SP_PAIRED] > 0.0:
             # paired: K / 2 strata, two independent rays in each (ids 2p and 2p + 1; p = stratum * n + point),
             # so the tallies take the variance from the pairs' differences
             pr = j >> 1
             pm = 1 + (j & 1)
             slot = pr // n
             q = pr - slot * n
-            u = (slot + ul) / (0.5 * src_par[s, 10])
+            u = (slot + ul) / (0.5 * SRC.par[s, 10])
         else:
-            u = (slot + ul) / src_par[s, 10]
-        r0 = src_pts_off[s]
+            u = (slot + ul) / SRC.par[s, 10]
+        r0 = SRC.pts_off[s]
         lo = 0
-        hi = int(src_par[s, 9]) - 1
+        hi = int(SRC.par[s, 9]) - 1
         while lo < hi:
             mid = (lo + hi) >> 1
-            if src_pts[r0 + mid, 0] < u:
+            if SRC.pts[r0 + mid, 0] < u:
                 lo = mid + 1
             else:
                 hi = mid
-        line = int(src_pts[r0 + lo, 1])
+        line = int(SRC.pts[r0 + lo, 1])
     else:
-        line = src_lmap[s, slot]     # the source's traced lines (all of them, or a camera's band lines)
-    w = src_w[s, line]
-    kind = src_kind[s]
+        line = SRC.lmap[s, slot]     # the source's traced lines (all of them, or a camera's band lines)
+    w = SRC.w[s, line]
+    kind = SRC.kind[s]
     u0, u1 = uniform2(seed, i, 0, 0)
     # the start point in the source's frame and its axis of Lambertian emission (the kind's plugin ``emit``)
     lx, ly, lz, ax, ay, az = _source_emit(kind, SRC, s, q, u0, u1)
     # to world
-    wx = src_R[s, 0] * lx + src_R[s, 1] * ly + src_R[s, 2] * lz
-    wy = src_R[s, 3] * lx + src_R[s, 4] * ly + src_R[s, 5] * lz
-    wz = src_R[s, 6] * lx + src_R[s, 7] * ly + src_R[s, 8] * lz
-    phx, plx = _two_sum(src_Th[s, 0], wx)
-    phy, ply = _two_sum(src_Th[s, 1], wy)
-    phz, plz = _two_sum(src_Th[s, 2], wz)
-    plx += src_Tl[s, 0]
-    ply += src_Tl[s, 1]
-    plz += src_Tl[s, 2]
-    dk = src_dir[s]
+    wx = SRC.R[s, 0] * lx + SRC.R[s, 1] * ly + SRC.R[s, 2] * lz
+    wy = SRC.R[s, 3] * lx + SRC.R[s, 4] * ly + SRC.R[s, 5] * lz
+    wz = SRC.R[s, 6] * lx + SRC.R[s, 7] * ly + SRC.R[s, 8] * lz
+    phx, plx = _two_sum(SRC.Th[s, 0], wx)
+    phy, ply = _two_sum(SRC.Th[s, 1], wy)
+    phz, plz = _two_sum(SRC.Th[s, 2], wz)
+    plx += SRC.Tl[s, 0]
+    ply += SRC.Tl[s, 1]
+    plz += SRC.Tl[s, 2]
+    dk = SRC.dir[s]
     if dk == DIR_COLLIMATED:  # the world direction is the source's own (_collimated_dirs), the same every ray
         return s, line, phx, phy, phz, plx, ply, plz, src_dw[s, 0], src_dw[s, 1], src_dw[s, 2], w, lx, ly, pm, i
     if dk != DIR_LAMBERT:   # the direction plugin's, per ray
         ldx, ldy, ldz = _source_direction(dk, SRC, s, lx, ly, lz)
-        dwx, dwy, dwz = _dir_to_world(src_R, s, ldx, ldy, ldz)
+        dwx, dwy, dwz = _dir_to_world(SRC.R, s, ldx, ldy, ldz)
         return s, line, phx, phy, phz, plx, ply, plz, dwx, dwy, dwz, w, lx, ly, pm, i
     # a Lambertian emitter (sphere, disk, point, a camera's pixels)
     u2, u3 = uniform2(seed, i, 0, 1)      # the direction's numbers: drawn only by the sources that use them
-    nwx = src_R[s, 0] * ax + src_R[s, 1] * ay + src_R[s, 2] * az
-    nwy = src_R[s, 3] * ax + src_R[s, 4] * ay + src_R[s, 5] * az
-    nwz = src_R[s, 6] * ax + src_R[s, 7] * ay + src_R[s, 8] * az
-    tgt = src_toward[s]
+    nwx = SRC.R[s, 0] * ax + SRC.R[s, 1] * ay + SRC.R[s, 2] * az
+    nwy = SRC.R[s, 3] * ax + SRC.R[s, 4] * ay + SRC.R[s, 5] * az
+    nwz = SRC.R[s, 6] * ax + SRC.R[s, 7] * ay + SRC.R[s, 8] * az
+    tgt = SRC.toward[s]
     if tgt >= 0:
         # sample the cone that holds the target's bounding sphere; exact weight = pdf_emitter / pdf_cone
-        cx = o_bc[tgt, 0] - src_Th[s, 0] - src_Tl[s, 0]
-        cy = o_bc[tgt, 1] - src_Th[s, 1] - src_Tl[s, 1]
-        cz = o_bc[tgt, 2] - src_Th[s, 2] - src_Tl[s, 2]
+        cx = o_bc[tgt, 0] - SRC.Th[s, 0] - SRC.Tl[s, 0]
+        cy = o_bc[tgt, 1] - SRC.Th[s, 1] - SRC.Tl[s, 1]
+        cz = o_bc[tgt, 2] - SRC.Th[s, 2] - SRC.Tl[s, 2]
         kx, ky, kz, omc = _cone_to(wx, wy, wz, cx, cy, cz, o_br[tgt])
         if nd > 0:      # the pair's stratum: m bands of equal solid angle in cos(angle) by m in azimuth
             u2 = (st % nd + u2) / nd
             u3 = (st // nd + u3) / nd
-            if src_par[s, SP_PILOT] > 0.0:
+            if SRC.par[s, SP_PILOT] > 0.0:
                 # a GUIDE's pilot: its tally bins by stratum and tile (DETECTOR ... START)
                 lx = st + 0.5
-                ly = _guide_tile(src_par, s, q, int(src_par[s, SP_GUIDE_T])) + 0.5
-        elif src_par[s, SP_GUIDE] > 0.0:
+                ly = _guide_tile(SRC.par, s, q, int(SRC.par[s, SP_GUIDE_T])) + 0.5
+        elif SRC.par[s, SP_GUIDE] > 0.0:
             u2, u3, gw = _guide(SRC, s, q, u2, u3)
             w *= gw
         dwx, dwy, dwz = _cone_dir(u2, u3, omc, kx, ky, kz)
@@ -564,22 +550,21 @@ def _guide(SRC, s, q, u2, u3):
     point q's tile's table (rows (cdf, 1 / (g^2 pmf)) in SRC.pts), u2 reused within the cell (its place between
     the cell's cumulative bounds), u3 across it.  Returns the cone's (u2, u3) and the weight factor: the uniform
     density over the guided one, so every cell (the pmf mixes in a uniform share) keeps its expected value."""
-    par = SRC.par
-    g = int(par[s, SP_GUIDE])
-    r0 = SRC.pts_off[s] + int(par[s, SP_GUIDE_ROW]) + _guide_tile(par, s, q, int(par[s, SP_GUIDE_T])) * g * g
-    pts = SRC.pts
+    g = int(SRC.par[s, SP_GUIDE])
+    tile = _guide_tile(SRC.par, s, q, int(SRC.par[s, SP_GUIDE_T]))
+    r0 = SRC.pts_off[s] + int(SRC.par[s, SP_GUIDE_ROW]) + tile * g * g
     lo = 0
     hi = g * g - 1
     while lo < hi:
         mid = (lo + hi) >> 1
-        if pts[r0 + mid, 0] <= u2:
+        if SRC.pts[r0 + mid, 0] <= u2:
             lo = mid + 1
         else:
             hi = mid
-    c0 = pts[r0 + lo - 1, 0] if lo > 0 else 0.0
-    f = (u2 - c0) / (pts[r0 + lo, 0] - c0)
+    c0 = SRC.pts[r0 + lo - 1, 0] if lo > 0 else 0.0
+    f = (u2 - c0) / (SRC.pts[r0 + lo, 0] - c0)
     f = min(max(f, 0.0), 0.9999999999999999)
-    return (lo % g + f) / g, (lo // g + u3) / g, pts[r0 + lo, 1]
+    return (lo % g + f) / g, (lo // g + u3) / g, SRC.pts[r0 + lo, 1]
 
 
 @numba.njit(cache=True, inline="always")
@@ -1111,14 +1096,14 @@ def _volume_event(stack, sp, npath, led, c, rows, key, line, MD, m1, t, w, w0, c
 
 
 @numba.njit(cache=True, inline="always")
-def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, MD, scf, scn, nee, w, nee_cut, bounds, fres, ll, pos,
-             d, nv, pol, o, j, opl, sx0, sy0, hist, H):
+def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, MD, scf, scn, nee, w, nee_cut, o_bc, o_br, fres, ll,
+             pos, d, nv, pol, o, j, opl, sx0, sy0, hist, H):
     """Expected-value next-event estimation over a fraction map's choice: when the hit's SCATTER specs include a
     fraction map, every model the hit may use sends its rays toward its target, weighted by the probability that
     the hit uses it (the random choice in _scatter_spec still decides the path's continuation, which then sends
     none): the same expectation, without the variance of the choice (a partly cloudy pixel: cloud or not).
-    A slab model on an index step (an atmosphere shell) sends w (1 - R_Fresnel), as in _model_split.  bounds
-    (o_bc, o_br), fres (interface, m1, m2, cos_i, Ar, Br, the boundary's unpolarized Fresnel R from
+    A slab model on an index step (an atmosphere shell) sends w (1 - R_Fresnel), as in _model_split.  o_bc,
+    o_br: the objects' bounding spheres (apart, not as a tuple: docs/architecture.md), fres (interface, m1, m2, cos_i, Ar, Br, the boundary's unpolarized Fresnel R from
     _specular), ll: the hit's geodetic (latitude, longitude).
     Returns (used, sp, npath)."""
     ev_nee = False
@@ -1129,7 +1114,6 @@ def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, MD, scf, scn, nee, 
                 break
     if F_MAPS and F_IMPORTANCE and ev_nee:
         lat, lon = ll
-        o_bc, o_br = bounds
         it, m1, m2, cos_i, Ar, Br, Rfr = fres
         keep = 1.0      # a slab's share behind the boundary's Fresnel reflection
         if F_REFRACT and it == IF_FRESNEL and MD.n[m1, line] != MD.n[m2, line]:
@@ -1175,7 +1159,7 @@ def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, MD, scf, scn, nee, 
 
 @numba.njit(cache=True, inline="always")
 def _model_split(stack, sp, npath, led, c, r_imp, key, line, SC, MD, spec, geo, fres, cos_i, how, w, nee_cut,
-                 bounds, pos, d, nv, pol, opl, sx0, sy0, hist, H):
+                 o_bc, o_br, pos, d, nv, pol, opl, sx0, sy0, hist, H):
     """How a hit with scatter model spec = (model, RAYS n, TOWARD target) shares its light: the specular R and T
     that the model leaves, and its diffuse part (a slab model is the whole interaction, behind the boundary's
     Fresnel reflection on a shell), and the model's rays toward its target (next-event estimation, exact weights;
@@ -1183,13 +1167,12 @@ def _model_split(stack, sp, npath, led, c, r_imp, key, line, SC, MD, spec, geo, 
     only the share keep = 1 - R_Fresnel (0 under total internal reflection): its rays toward the target carry
     w keep, and its sampled scatterings' weights carry keep too (_diffuse_scatter).  geo (object, surface,
     interface, m1, m2), fres (R, T, Ar, Br, and _specular's R before any gate: an IF_FRESNEL boundary's
-    unpolarized Fresnel R), how (nee, ev_nee), bounds (o_bc, o_br).  Returns (R, T, diffuse,
+    unpolarized Fresnel R), how (nee, ev_nee), o_bc, o_br the objects' bounding spheres.  Returns (R, T, diffuse,
     keep, kind, P, sp, npath)."""
     sc, sc_n, sc_tgt = spec
     o, j, it, m1, m2 = geo
     R, T, Ar, Br, Rfr = fres
     nee, ev_nee = how
-    o_bc, o_br = bounds
     stq = pol[0]
     mk = SC.mod_kind[sc]
     Pm = SC.mod_P[sc].T       # (PMAX, L), line-major in memory (compile.pack)
@@ -1700,7 +1683,7 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                     slab_keep = 1.0
                     # a fraction map's models all send their rays toward their targets (expected value)
                     ev_nee, sp, npath = _map_nee(stack, sp, npath, led, c, r_imp, (seed, i, ev, path), line, SC, MD,
-                                                 scf, scn, nee, w, nee_cut, (o_bc, o_br),
+                                                 scf, scn, nee, w, nee_cut, o_bc, o_br,
                                                  (it, m1, m2, cos_i, Ar, Br, Rfr), (glat, glon),
                                                  (phx, phy, phz, plx, ply, plz), (dx, dy, dz), (nvx, nvy, nvz),
                                                  (stq, stu, stv, ex, ey, ez), o, j, opl, sx0, sy0, hist, H)
@@ -1708,7 +1691,7 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
                         # the model's share of the light (R, T and diffuse), and its rays toward its target
                         R, T, diffuse, slab_keep, mk, Pm, sp, npath = _model_split(
                             stack, sp, npath, led, c, r_imp, (seed, i, ev, path), line, SC, MD, (sc, sc_n, sc_tgt),
-                            (o, j, it, m1, m2), (R, T, Ar, Br, Rfr), cos_i, (nee, ev_nee), w, nee_cut, (o_bc, o_br),
+                            (o, j, it, m1, m2), (R, T, Ar, Br, Rfr), cos_i, (nee, ev_nee), w, nee_cut, o_bc, o_br,
                             (phx, phy, phz, plx, ply, plz), (dx, dy, dz), (nvx, nvy, nvz),
                             (stq, stu, stv, ex, ey, ez), opl, sx0, sy0, hist, H)
                     tot = R + T + diffuse

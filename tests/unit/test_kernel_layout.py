@@ -8,7 +8,13 @@ structures, used by packing and kernel alike.  Structural guards (no physics):
   trace_batch takes its output arrays out of the structures before the loop and helpers write only into arrays
   passed to them; calls pass at most 30 arguments (Python passes more as *args, which Numba cannot inline).
   The parallel loop itself (_trace_chunks) takes the structures' fields as plain arguments: a parallel loop
-  over namedtuple arguments ran 20 % slower (the telescope benchmark).
+  over namedtuple arguments ran 20 % slower (the telescope benchmark);
+* no kernel or plugin code binds a structure's array to a local name (``par = SRC.par``): the local holds a
+  reference that Numba counts with an atomic increment and decrement, and when the local lives across branches
+  LLVM's reference-count pruning cannot remove the pair, so it ran on every ray.  _gen's fourteen such locals
+  (and the GRID plugins' ``par``, ``pts``) made the telescope trace 7-23 % slower on two threads (the count's
+  cache line bounces between the cores); read the field in place (``SRC.par[s, 0]``), whose temporary lives in
+  one block and is pruned.
 """
 from __future__ import annotations
 
@@ -59,6 +65,23 @@ def test_no_writes_through_a_structure_and_short_calls():
         if isinstance(n, ast.Assign) and isinstance(n.targets[0], ast.Tuple) and isinstance(n.value, ast.Name):
             assert n.value.id not in STRUCTS, \
                 f"line {n.lineno}: a structure unpacked as a tuple (its arrays' writes would be lost)"
+
+
+def test_no_structure_field_bound_to_a_local():
+    plugins = KERNEL.parents[1] / "plugins"
+    files = sorted(KERNEL.parent.glob("*.py")) + sorted(plugins.glob("*/*.py"))
+    bad = []
+    for p in files:
+        for fn in ast.walk(ast.parse(p.read_text())):
+            if not isinstance(fn, ast.FunctionDef):
+                continue
+            structs = {a.arg for a in fn.args.args} & set(STRUCTS)     # the structures this function is given
+            for n in ast.walk(fn):
+                if (isinstance(n, ast.Assign) and isinstance(n.value, ast.Attribute)
+                        and isinstance(n.value.value, ast.Name) and n.value.value.id in structs):
+                    bad.append(f"{p.name}:{n.lineno}: {ast.unparse(n)}")
+    assert not bad, "a structure's array bound to a local (an atomic reference count per use; read it in " \
+                    f"place): {bad}"
 
 
 def test_surface_table_columns(tmp_path):

@@ -14,6 +14,8 @@ table SRC at row s:
   toward a target, at cos to the axis); without them, ``_common``'s: cosine-weighted over the hemisphere;
 * a direction: ``DIRECTION_CODES`` (its ``layout.DIR_*`` codes) and ``direction(SRC, s, x, y, z) -> (dx, dy,
   dz)`` in the source's frame (the kernel rotates and normalizes it; DIR_COLLIMATED once per batch).
+Read SRC's arrays in place (``SRC.par[s, 0]``), never as locals (``par = SRC.par``): a local is an atomically
+counted reference that runs on every ray (docs/architecture.md, "The kernel"; tests/unit/test_kernel_layout.py).
 Packing stays in ``irtlang.compile.pack._pack_sources``.
 """
 from .. import load_registry

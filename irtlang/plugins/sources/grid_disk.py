@@ -33,21 +33,19 @@ def build(b, ctx) -> dict:
 def emit(SRC, s, q, u0, u1):
     """A random point of the disk, or point q of its lattice: the row table (irtlang.compile.pack.
     disk_lattice_rows: per row its first point and its y index, then an end marker) gives q's row."""
-    par = SRC.par
     if SRC.random[s] == SAMPLE_RANDOM:
         x, y = uniform_disk(u0, u1)
-        return par[s, 0] * x, par[s, 0] * y, 0.0, 0.0, 0.0, 1.0
-    pts = SRC.pts
+        return SRC.par[s, 0] * x, SRC.par[s, 0] * y, 0.0, 0.0, 0.0, 1.0
     r0 = SRC.pts_off[s]
     lo = 0
-    hi = int(par[s, 2])        # rows; entry hi is the end marker
+    hi = int(SRC.par[s, 2])        # rows; entry hi is the end marker
     while hi - lo > 1:
         mid = (lo + hi) >> 1
-        if pts[r0 + mid, 0] <= q:
+        if SRC.pts[r0 + mid, 0] <= q:
             lo = mid
         else:
             hi = mid
-    start = pts[r0 + lo, 0]
-    amax = (pts[r0 + lo + 1, 0] - start - 1.0) * 0.5
-    h = par[s, 1]
-    return (q - start - amax) * h, pts[r0 + lo, 1] * h, 0.0, 0.0, 0.0, 1.0
+    start = SRC.pts[r0 + lo, 0]
+    amax = (SRC.pts[r0 + lo + 1, 0] - start - 1.0) * 0.5
+    h = SRC.par[s, 1]
+    return (q - start - amax) * h, SRC.pts[r0 + lo, 1] * h, 0.0, 0.0, 0.0, 1.0

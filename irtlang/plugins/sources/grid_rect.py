@@ -41,9 +41,8 @@ def emit(SRC, s, q, u0, u1):
     Lambertian axis of a camera's pixels, on the side par[8] (+-1).  A camera's one elliptical pixel
     (par[SP_ELLIPSE] = 1: a DISK or ELLIPSE aperture) takes the point to the ellipse inscribed in the extent by
     Shirley and Chiu's concentric map, which keeps areas and so the strata."""
-    par = SRC.par
-    nx = int(par[s, 4])
-    ny = int(par[s, 5])
+    nx = int(SRC.par[s, 4])
+    ny = int(SRC.par[s, 5])
     if SRC.random[s] == SAMPLE_RANDOM:
         fx = u0
         fy = u1
@@ -56,7 +55,7 @@ def emit(SRC, s, q, u0, u1):
         else:
             fx = (ix + 0.5) / nx
             fy = (iy + 0.5) / ny
-    if par[s, SP_ELLIPSE] > 0.0:
+    if SRC.par[s, SP_ELLIPSE] > 0.0:
         a = 2.0 * fx - 1.0
         b = 2.0 * fy - 1.0
         if a == 0.0 and b == 0.0:
@@ -70,6 +69,6 @@ def emit(SRC, s, q, u0, u1):
             phi = 0.5 * math.pi - 0.25 * math.pi * (a / b)
         fx = 0.5 + 0.5 * r * math.cos(phi)
         fy = 0.5 + 0.5 * r * math.sin(phi)
-    lx = par[s, 0] + (par[s, 1] - par[s, 0]) * fx
-    ly = par[s, 2] + (par[s, 3] - par[s, 2]) * fy
-    return lx, ly, 0.0, 0.0, 0.0, par[s, 8]
+    lx = SRC.par[s, 0] + (SRC.par[s, 1] - SRC.par[s, 0]) * fx
+    ly = SRC.par[s, 2] + (SRC.par[s, 3] - SRC.par[s, 2]) * fy
+    return lx, ly, 0.0, 0.0, 0.0, SRC.par[s, 8]

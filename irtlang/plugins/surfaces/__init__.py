@@ -23,6 +23,8 @@ in the registry, and the kernel's dispatch over kinds is generated from the regi
   aperture test (the kernel applies it).  With ``leaving`` the ray starts on this surface (it has just left it):
   the root of the departure point itself must be dropped.  ``face``: a mesh's triangle row, else -1;
 * ``normal(f, si, S, j, x, y, z, face) -> (nx, ny, nz)``, njit inline: the local unit normal at a point of the surface.
+  Both read S's arrays in place (``S.fn[face, 0]``), never as locals (``fn = S.fn``): a local is an atomically
+  counted reference that runs on every hit (docs/architecture.md, "The kernel"; tests/unit/test_kernel_layout.py).
 
 Generic tests over the registry: tests/unit/test_surface_plugins.py.
 """
