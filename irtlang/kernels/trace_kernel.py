@@ -726,7 +726,7 @@ def _pop(stack, sp, hist, H, stq, stu, stv, ex, ey, ez):
 
 
 # ---------------------------------------------------------------------------------------------- event helpers
-# Inlined into _trace_chunks.  Numba loses a parallel loop's writes to an array reached through a tuple, so a
+# Inlined into trace_batch's parallel loop.  Numba loses a parallel loop's writes to an array reached through a tuple, so a
 # helper may READ a layout structure (S, SC, MD, D) but writes only into arrays passed to it as such.
 @numba.njit(cache=True, inline="always")
 def _deposit(D, dd, dep_idx, dep_w, dep_d, c, ndep, cap, line, L, w, lx, ly, sx0, sy0, s_f, j, dx, dy, dz, ex, ey,
@@ -1458,39 +1458,37 @@ def _merge_deposits(dep_idx, dep_w, dep_d, c, dep0, ndep):
 
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
     """Trace source rays first .. first+n-1 with every path they spawn.  Per chunk c: led[c] (rows, 5, L),
     inc_sq[c] (rows, L), deposits dep_idx/dep_w[c, :dep_n[c]] and records rec_*[c, :rec_n[c]] (one per
     path end); a count of -1 marks a chunk that overflowed its list (the caller retries with more room).
     Rows: objects, absorbing media, [IMPORTANCE], EMITTED, ESCAPED, HALTED, LOST (the last four).
     The arguments are the structures of ``irtlang.kernels.layout`` (Settings, Surfaces, Objects, Scatter, Media,
-    Detectors, Sources, Tallies, Records); their fields become the locals the trace reads."""
-    _trace_chunks(settings.first, settings.n, settings.total, settings.seed, settings.level, settings.halt,
-                  settings.nee_cut, settings.r_imp, S.f, S.i, S.mesh, S.bmin, S.bmax, S.child, S.count, S.tris, S.ids, S.fn, O.itf,
-                  O.coat, O.back, O.front, O.det, O.pol, O.bc, O.br, O.sc_first, O.sc_cnt, SC.kind, SC.model,
-                  SC.map, SC.cls_off, SC.cls_n, SC.rays, SC.tgt, SC.cls_models, SC.map_data, SC.map_off,
-                  SC.map_nlat, SC.map_nlon, SC.mod_kind, SC.mod_P, SC.mod_slab, MD.n, MD.alpha, MD.row, MD.sig,
-                  MD.alb, MD.g, MD.phase, MD.depol, MD.tgt, MD.nee, MD.coat_R, MD.coat_T, D.nx, D.ny, D.ext, D.off,
-                  D.qe, D.start, SRC.kind, SRC.dir, SRC.par, SRC.R, SRC.Th, SRC.Tl, SRC.n, SRC.off, SRC.w,
-                  SRC.random, SRC.toward, SRC.pts, SRC.pts_off, SRC.lmap, T.led, T.inc_sq, T.dep_idx, T.dep_w,
-                  T.dep_d, T.dep_n, REC.pos, REC.dir, REC.w, REC.line, REC.src, REC.obj, REC.ev, REC.flags, REC.hist,
-                  REC.opl, REC.start, REC.n)
-
-
-@numba.njit(cache=True, parallel=True)
-def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, s_mesh, s_bmin, s_bmax, s_child,
-                  s_count, s_tris, s_ids, s_fn, o_itf, o_coat, o_back, o_front, o_det, o_pol, o_bc, o_br, o_sc_first, o_sc_cnt,
-                  sp_kind, sp_model, sp_map, sp_cls_off, sp_cls_n, sp_rays, sp_tgt, cls_models, map_data, map_off,
-                  map_nlat, map_nlon, mod_kind, mod_P, mod_slab, med_n, med_alpha, med_row, med_sig, med_alb, med_g,
-                  med_phase, med_depol, med_tgt, med_nee, md_coat_R, md_coat_T, d_nx, d_ny, d_ext, d_off, d_qe,
-                  d_start, src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w, src_random,
-                  src_toward, src_pts, src_pts_off, src_lmap, led, inc_sq, dep_idx, dep_w, dep_d, dep_n, rec_pos, rec_dir,
-                  rec_w, rec_line, rec_src, rec_obj, rec_ev, rec_flags, rec_hist, rec_opl, rec_start, rec_n):
-    """trace_batch's parallel loop over chunks, on the structures' fields as plain arguments: Numba optimizes a
-    parallel loop over plain array arguments better (a loop over namedtuple arguments ran 20 % slower, measured
-    on the telescope benchmark), and writes through a tuple inside it would be lost.  The structures the
-    helpers read are rebuilt per chunk from these arrays."""
+    Detectors, Sources, Tallies, Records).  Their fields become locals before the parallel loop, so that the loop
+    takes plain arrays: writes into an array reached through a tuple inside a parallel loop are lost, and a
+    parallel loop over tuples of arrays ran 20 % slower.  The structures the helpers read are rebuilt per chunk
+    from these locals."""
+    first = settings.first; n = settings.n; total = settings.total; seed = settings.seed; level = settings.level
+    halt = settings.halt; nee_cut = settings.nee_cut; r_imp = settings.r_imp
+    s_f = S.f; s_i = S.i; s_mesh = S.mesh; s_bmin = S.bmin; s_bmax = S.bmax; s_child = S.child; s_count = S.count
+    s_tris = S.tris; s_ids = S.ids; s_fn = S.fn
+    o_itf = O.itf; o_coat = O.coat; o_back = O.back; o_front = O.front; o_det = O.det; o_pol = O.pol; o_bc = O.bc
+    o_br = O.br; o_sc_first = O.sc_first; o_sc_cnt = O.sc_cnt
+    sp_kind = SC.kind; sp_model = SC.model; sp_map = SC.map; sp_cls_off = SC.cls_off; sp_cls_n = SC.cls_n
+    sp_rays = SC.rays; sp_tgt = SC.tgt; cls_models = SC.cls_models; map_data = SC.map_data; map_off = SC.map_off
+    map_nlat = SC.map_nlat; map_nlon = SC.map_nlon; mod_kind = SC.mod_kind; mod_P = SC.mod_P; mod_slab = SC.mod_slab
+    med_n = MD.n; med_alpha = MD.alpha; med_row = MD.row; med_sig = MD.sig; med_alb = MD.alb; med_g = MD.g
+    med_phase = MD.phase; med_depol = MD.depol; med_tgt = MD.tgt; med_nee = MD.nee; md_coat_R = MD.coat_R
+    md_coat_T = MD.coat_T
+    d_nx = D.nx; d_ny = D.ny; d_ext = D.ext; d_off = D.off; d_qe = D.qe; d_start = D.start
+    src_kind = SRC.kind; src_dir = SRC.dir; src_par = SRC.par; src_R = SRC.R; src_Th = SRC.Th; src_Tl = SRC.Tl
+    src_n = SRC.n; src_off = SRC.off; src_w = SRC.w; src_random = SRC.random; src_toward = SRC.toward
+    src_pts = SRC.pts; src_pts_off = SRC.pts_off; src_lmap = SRC.lmap
+    led = T.led; inc_sq = T.inc_sq; dep_idx = T.dep_idx; dep_w = T.dep_w; dep_d = T.dep_d; dep_n = T.dep_n
+    rec_pos = REC.pos; rec_dir = REC.dir; rec_w = REC.w; rec_line = REC.line; rec_src = REC.src; rec_obj = REC.obj
+    rec_ev = REC.ev; rec_flags = REC.flags; rec_hist = REC.hist; rec_opl = REC.opl; rec_start = REC.start
+    rec_n = REC.n
     nrows = led.shape[1]
     r_emit = nrows - 4
     r_esc = nrows - 3
@@ -1500,10 +1498,9 @@ def _trace_chunks(first, n, total, seed, level, halt, nee_cut, r_imp, s_f, s_i, 
     cap = dep_idx.shape[1]
     rcap = rec_w.shape[1]
     H = rec_hist.shape[2]
-    src_dw = _collimated_dirs(Sources(src_kind, src_dir, src_par, src_R, src_Th, src_Tl, src_n, src_off, src_w,
-                                      src_random, src_toward, src_pts, src_pts_off, src_lmap))
+    src_dw = _collimated_dirs(SRC)
     for c in numba.prange(nchunks):
-        # the structures the helpers read, from this function's arguments (see the docstring)
+        # the structures the helpers read, rebuilt from the locals above (see the docstring)
         S = Surfaces(s_f, s_i, s_mesh, s_bmin, s_bmax, s_child, s_count, s_tris, s_ids, s_fn)
         SC = Scatter(sp_kind, sp_model, sp_map, sp_cls_off, sp_cls_n, sp_rays, sp_tgt, cls_models, map_data,
             map_off, map_nlat, map_nlon, mod_kind, mod_P, mod_slab)

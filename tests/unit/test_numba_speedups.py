@@ -34,7 +34,7 @@ def _irs():
         return s
 
     for fn in (small, geometry.hit_conic_plain.py_func, trace_kernel._nearest.py_func,
-               trace_kernel._trace_chunks.py_func):
+               trace_kernel.trace_batch.py_func):
         yield fn.__name__, compiler.run_frontend(fn)
 
 
