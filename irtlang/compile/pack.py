@@ -50,6 +50,7 @@ class Features:
 
     conic: bool = False
     quadric: bool = False      # sphere, ellipsoid, tube
+    biconic: bool = False      # BICONIC (its own: its root finder is about a tenth of a small scene's first compile)
     mesh: bool = False
     refract: bool = False      # any transmitting interface
     absorb_media: bool = False

@@ -143,7 +143,8 @@ def all_features() -> Features:
     """Every feature on and every scatter model in the dispatch: one kernel for any scene."""
     from ..plugins.bsdfs import REGISTRY
 
-    f = Features(**{k: True for k in _FLAGS if k != "polar"})   # polarization changes results: the scene's own
+    # every flag but polarization (it changes results: the scene's own), surface kinds without a template flag too
+    f = Features(**{k: True for k in Features.__dataclass_fields__ if k not in ("polar", "bsdf_kinds")})
     f.bsdf_kinds = tuple(REGISTRY)
     return f
 

@@ -126,7 +126,12 @@ def ray_at(rng, target, distance):
 # ---------------------------------------------------------------------------------------------- registry
 def test_registered_last_with_its_contract():
     assert list(REGISTRY)[-1] == "BICONIC" and CODES["BICONIC"] == len(REGISTRY) - 1
-    assert B.KIND == "BICONIC" and B.FEATURE == "conic"
+    assert B.KIND == "BICONIC" and B.FEATURE == "biconic"
+    # its own feature: a scene with conics and no biconic compiles none of its root finder
+    from irtlang.compile.pack import Features
+    from irtlang.compile.specialize import surface_dispatch
+    assert f"_hit_{CODES['BICONIC']}" not in surface_dispatch(Features(conic=True, quadric=True, mesh=True))
+    assert f"_hit_{CODES['BICONIC']}" in surface_dispatch(Features(biconic=True))
     assert B.__doc__.splitlines()[0].startswith("BICONIC axis vertex")
     assert "| RADIUS Rx Ry |" in B.__doc__ and "| CONIC kx ky |" in B.__doc__
     assert "BICONIC" in B.EXAMPLE

@@ -73,6 +73,10 @@ def test_packed_row_bounds_hit_normal(kind, tmp_path):
     assert len(par) <= layout.N_PAR and len(asph) <= layout.N_ASPH
     j = 0
     assert si[j, layout.SI_KIND] == CODES[kind]
+    # the scene turns on its kind's feature, so its specialized kernel has the kind's branch (and a scene without
+    # the kind compiles none of its code: test_contract_and_dispatch)
+    assert mod.FEATURE is None or getattr(pk.features, mod.FEATURE)
+    assert f"import hit as _hit_{CODES[kind]}" in specialize.surface_dispatch(pk.features)
     assert tuple(f[j, layout.SF_PAR:layout.SF_PAR + len(par)]) == par
     assert tuple(f[j, layout.SF_ASPH:layout.SF_ASPH + len(asph)]) == asph
     assert si[j, layout.SI_NASPH] == len(asph)

@@ -7,7 +7,8 @@ in the registry, and the kernel's dispatch over kinds is generated from the regi
 * ``KIND``, ``FORM``, ``EXAMPLE``, ``build(bound, ctx) -> model.scene.Surface`` and a docstring with its parameter
   table (``irtlang/plugins/__init__.py``);
 * ``FEATURE``: the kernel feature flag its code is compiled under (``irtlang.compile.pack.Features``: "conic",
-  "quadric", "mesh"), or None for code every kernel has;
+  "quadric", "mesh", or a field of its own, as "biconic": then only scenes with the kind compile its code), or None
+  for code every kernel has;
 * ``pack(surface) -> dict`` with any of ``par`` (at most ``layout.N_PAR`` floats, columns SF_PAR..),
   ``asph`` (at most ``layout.N_ASPH`` even-asphere terms, SF_ASPH..) and ``mesh`` (a ``kernels.bvh.build_bvh``
   result); its docstring says what each parameter is.  Everything in metres, in the surface's local frame;

@@ -66,7 +66,7 @@ FORM = Form((Axis(), V("vertex", LENGTH)), (
     Clause("CONIC", (V("kx", NONE), V("ky", NONE)), doc="conic constants along local x and y"),
 ) + CLAUSES)
 EXAMPLE = "SURFACE\n  BICONIC Z 0 RADIUS -400 -600 CONIC -1 -0.5 RECT 50 30\nOBJECT 'anamorphic'"
-FEATURE = "conic"
+FEATURE = "biconic"
 
 
 def _form_range(a: float, b: float, ap) -> tuple:
