@@ -16,6 +16,25 @@ from irtlang.tracer import run_trace
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples_scripts"
 
+#: the small Cassegrain of the camera-side tests (metres; primary f = 1 m, secondary magnification 5, a 24 x 24
+#: detector of 6 mm behind the primary's vertex): SURFACE/OBJECT blocks, the detector's line ending with `detector`
+def small_cassegrain(detector: str = "") -> str:
+    return f"""SURFACE
+  CONIC Z 0 RADIUS 2 CONIC -1 ANNULUS 0.06 0.25
+OBJECT primary
+  INTERFACE REFLECT
+SURFACE
+  CONIC Z 0.8 RADIUS 0.5 CONIC -2.25 DISK 0.055
+OBJECT secondary
+  INTERFACE REFLECT
+SURFACE
+  PLANE Z (-0.2 - 0.00025) RECT 0.006 0.006
+OBJECT fpa
+  INTERFACE ABSORB
+  DETECTOR PIXELS 24 24{detector}
+"""
+
+
 # ledger rows are objects, absorbing media, [IMPORTANCE], then these four (always the last four)
 EMITTED, ESCAPED, HALTED, LOST = -4, -3, -2, -1
 INC, REF, TRA, SCA, ABS = range(5)

@@ -13,6 +13,8 @@ SCATTER specs).
 from __future__ import annotations
 
 import math
+import sys
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +22,9 @@ import pytest
 
 from irtlang.cli import main
 from irtlang.model.camera import GUIDE_MIX, guide_tables
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _trace_util import small_cassegrain  # noqa: E402
 
 SCRIPT = Path(__file__).resolve().parents[2] / "examples_scripts" / "camera_cassegrain.inr"
 
@@ -190,22 +195,7 @@ def test_guide_pilot_is_cached_and_seed_free(tmp_path, capsys):
     assert not np.array_equal(a, np.load(tmp_path / "two" / "first.npy"))
 
 
-_TELESCOPE = """GROUP telescope
-  SURFACE
-    CONIC Z 0 RADIUS 2 CONIC -1 ANNULUS 0.06 0.25
-  OBJECT primary
-    INTERFACE REFLECT
-  SURFACE
-    CONIC Z 0.8 RADIUS 0.5 CONIC -2.25 DISK 0.055
-  OBJECT secondary
-    INTERFACE REFLECT
-  SURFACE
-    PLANE Z (-0.2 - 0.00025) RECT 0.006 0.006
-  OBJECT fpa
-    INTERFACE ABSORB
-    DETECTOR PIXELS 24 24
-END GROUP
-"""
+_TELESCOPE = "GROUP telescope\n" + textwrap.indent(small_cassegrain(), "  ") + "END GROUP\n"
 
 _MOVED_SCENE = """UNITS M
 WAVELENGTHS 550 NM

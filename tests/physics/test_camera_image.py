@@ -23,6 +23,7 @@ itself noisy, and the mean of (a - b)^2 / (se_a^2 + se_b^2) over pixels is then 
 from __future__ import annotations
 
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +32,9 @@ import pytest
 from irtlang.cli import main
 
 SCRIPT = Path(__file__).resolve().parents[2] / "examples_scripts" / "camera_cassegrain.inr"
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _trace_util import small_cassegrain  # noqa: E402
 
 
 def _run(tmp_path, name, **sets):
@@ -159,20 +163,7 @@ SURFACE
 OBJECT ball
   INTERFACE ABSORB
   SCATTER MODEL paint
-SURFACE
-  CONIC Z 0 RADIUS 2 CONIC -1 ANNULUS 0.06 0.25
-OBJECT primary
-  INTERFACE REFLECT
-SURFACE
-  CONIC Z 0.8 RADIUS 0.5 CONIC -2.25 DISK 0.055
-OBJECT secondary
-  INTERFACE REFLECT
-SURFACE
-  PLANE Z (-0.2 - 0.00025) RECT 0.006 0.006
-OBJECT fpa
-  INTERFACE ABSORB
-  DETECTOR PIXELS 24 24 FILTERS blue red
-EMITTING SPHERE (1e9 * sin(60)) 0 (1e5 - 1e9 * cos(60)) 1e6 RAYS 1
+""" + small_cassegrain(" FILTERS blue red") + """EMITTING SPHERE (1e9 * sin(60)) 0 (1e5 - 1e9 * cos(60)) 1e6 RAYS 1
 FLUX TOTAL 1e18 W
 LEVEL 50
 HALT 0.01
