@@ -16,9 +16,10 @@ from irtlang.tracer import run_trace
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples_scripts"
 
-#: the small Cassegrain of the camera-side tests (metres; primary f = 1 m, secondary magnification 5, a 24 x 24
-#: detector of 6 mm behind the primary's vertex): SURFACE/OBJECT blocks, the detector's line ending with `detector`
 def small_cassegrain(detector: str = "") -> str:
+    """The small Cassegrain of the camera-side tests as SURFACE/OBJECT blocks (metres: primary f = 1 m, secondary
+    magnification 5, a 24 x 24 pixel detector 12 mm square, 0.2 m behind the primary's vertex); `detector` ends the
+    DETECTOR line (e.g. " FILTERS blue red")."""
     return f"""SURFACE
   CONIC Z 0 RADIUS 2 CONIC -1 ANNULUS 0.06 0.25
 OBJECT primary
