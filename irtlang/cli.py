@@ -19,9 +19,10 @@ BUG_URL = "https://github.com/irtlang/irtlang/issues"
 
 
 def _setup_numba_cache() -> None:
-    if "NUMBA_CACHE_DIR" not in os.environ:
-        base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-        os.environ["NUMBA_CACHE_DIR"] = os.path.join(base, "irtlang", "numba")
+    """The package's rule (irtlang/__init__.py), again: a test may have removed the variable since the import."""
+    from . import _setup_numba_cache as setup
+
+    setup()
 
 
 def _wants_analysis(argv) -> bool:
