@@ -92,6 +92,12 @@ def test_guided_standard_errors_are_honest_and_lower(tmp_path):
     assert (ae ** 2).sum() < 0.9 * (ue ** 2).sum(), ((ae ** 2).sum(), (ue ** 2).sum())
 
 
+# the small Cassegrain with a baffle tube between the mirrors, as a GROUP placed in the scene
+_TUBE = """SURFACE
+  TUBE Z 0.2 0.26 0.9 0.26
+OBJECT tube
+  INTERFACE ABSORB
+"""
 _GROUP_SCENE = """UNITS M
 WAVELENGTHS 550 NM
 SEED {seed}
@@ -102,24 +108,7 @@ OBJECT ball
   INTERFACE ABSORB
   SCATTER MODEL paint
 GROUP telescope
-  SURFACE
-    CONIC Z 0 RADIUS 2 CONIC -1 ANNULUS 0.06 0.25
-  OBJECT primary
-    INTERFACE REFLECT
-  SURFACE
-    CONIC Z 0.8 RADIUS 0.5 CONIC -2.25 DISK 0.055
-  OBJECT secondary
-    INTERFACE REFLECT
-  SURFACE
-    TUBE Z 0.2 0.26 0.9 0.26
-  OBJECT tube
-    INTERFACE ABSORB
-  SURFACE
-    PLANE Z (-0.2 - 0.00025) RECT 0.006 0.006
-  OBJECT fpa
-    INTERFACE ABSORB
-    DETECTOR PIXELS 24 24
-END GROUP
+""" + textwrap.indent(small_cassegrain().replace("SURFACE\n  PLANE", _TUBE + "SURFACE\n  PLANE"), "  ") + """END GROUP
 PLACE telescope AT 0 0 0 AIM 0 0 1
 EMITTING SPHERE (1e9 * sin(60)) 0 (1e5 - 1e9 * cos(60)) 1e6 RAYS 1
 FLUX TOTAL 1e18 W
