@@ -233,7 +233,7 @@ class Engine:
     def _trace_camera(self, step, sc, cam, interp):
         """TRACE CAMERA: a camera-side (adjoint) trace (irtlang/model/camera.py).  Its image becomes the camera
         object's, so EXPORT, ANALYZE and the REPL see it as a forward trace's; per-pixel standard errors use the
-        number of rays each pixel started (s^2 per traced line), not the whole trace's.  With STOKES, six traces
+        number of rays behind each pixel of each image (camera_scene's samples), not the whole trace's.  With STOKES, six traces
         behind ideal analyzers (STOKES_ANALYZERS; independent random streams: seed + k 2^40) give I, Q, U, V."""
         import dataclasses
 
@@ -261,7 +261,9 @@ class Engine:
             except MissingFeature as e:
                 raise MissingCapability(e.span, e.what, e.capability) from None
             img, img2 = res.images.pop(csc.objects[info["light"]].name)
-            n_p = info["rays_per_pixel_line"] * info["samples"]      # rays started in each pixel
+            # the rays behind one pixel of one image: SPECTRAL k draws k lines per point, each image taking its
+            # share (zero for the others); without it each line's image has rays_per_pixel_line rays of its own
+            n_p = info["rays_per_pixel_line"] * info["samples"]
             if info["paired"]:
                 var = img2      # the sum over stratified pairs of (a - b)^2: the variance of the pixel's sum
             elif n_p > 1:

@@ -1096,6 +1096,108 @@ def _volume_event(stack, sp, npath, led, c, rows, key, line, MD, m1, t, w, w0, c
 
 
 @numba.njit(cache=True, inline="always")
+def _has_fraction_map(SC, scf, scn):
+    """Whether the SCATTER specs scf .. scf + scn - 1 include a fraction map (whose choice is random)."""
+    for qq in range(scn):
+        if SC.kind[scf + qq] == SPEC_FRACTION_MAP:
+            return True
+    return False
+
+
+@numba.njit(cache=True, inline="always")
+def _spec_share(SC, spn, lat, lon, preach):
+    """The model that SCATTER spec spn gives at (lat, lon) and the probability that a hit uses it: preach is the
+    probability that the specs before it passed the hit on.  A class map takes the whole rest (model -1: a class
+    without a model), a fraction map the share v of it.  Returns (model, its probability, the rest's)."""
+    kd = SC.kind[spn]
+    pmix = preach
+    mq = -1
+    if kd != SPEC_MODEL:
+        mp = SC.map[spn]
+        vq = map_value(SC.map_data, SC.map_off[mp], SC.map_nlat[mp], SC.map_nlon[mp], lat, lon)
+        if kd == SPEC_CLASS_MAP:
+            cl = int(vq)
+            if cl >= 0 and cl < SC.cls_n[spn]:
+                mq = SC.cls_models[SC.cls_off[spn] + cl]
+            preach = 0.0
+        else:
+            vq = min(max(vq, 0.0), 1.0)
+            pmix = preach * vq
+            mq = SC.model[spn]
+            preach *= 1.0 - vq
+    else:
+        mq = SC.model[spn]
+        preach = 0.0
+    return mq, pmix, preach
+
+
+@numba.njit(cache=True, inline="always")
+def _model_share(SC, MD, sc, line, cos_i, geo, R, T, Rf, nee):
+    """How scatter model sc shares a hit's light: the specular R and T it leaves and its diffuse part.  A slab
+    model is the whole interaction (R = T = 0; for a ray aimed at a target T is its unscattered beam); on an index
+    step (an atmosphere shell) the boundary's Fresnel reflection Rf comes first and the slab gets keep = 1 - Rf.
+    A surface model of albedo rho leaves (1 - rho) of R and T.  A ray aimed at a target follows only the specular
+    parts (diffuse 0).  geo (interface, m1, m2).  Returns (R, T, diffuse, keep, kind, P)."""
+    it, m1, m2 = geo
+    mk = SC.mod_kind[sc]
+    Pm = SC.mod_P[sc].T       # (PMAX, L), line-major in memory (compile.pack)
+    Rb, Tb = _bsdf_albedo(mk, Pm, line, cos_i)
+    keep = 1.0
+    if SC.mod_slab[sc] == 1:
+        # a slab model is the whole interaction; its own sampling includes the direct beam
+        R = 0.0
+        T = 0.0
+        diffuse = Rb + Tb
+        if nee:
+            T = _bsdf_direct(mk, Pm, line, cos_i)
+        if F_REFRACT and it == IF_FRESNEL and MD.n[m1, line] != MD.n[m2, line]:
+            # a slab on a boundary between two media (atmosphere shells): Fresnel reflection at the boundary
+            # first, the slab takes the rest: its sampled scattering (_diffuse_scatter) and its rays toward
+            # the target
+            R = Rf
+            T *= 1.0 - Rf
+            diffuse *= 1.0 - Rf
+            keep = 1.0 - Rf
+    else:
+        rho = min(1.0, Rb + Tb)
+        R *= (1.0 - rho)
+        T *= (1.0 - rho)
+        diffuse = rho
+    if nee:
+        diffuse = 0.0      # rays aimed at a target follow only the specular parts
+    return R, T, diffuse, keep, mk, Pm
+
+
+@numba.njit(cache=True, inline="always")
+def _nee_map_mix(SC, MD, scf, scn, ll, line, cos_i, geo, R, T, Rf):
+    """A ray aimed at a target (next-event estimation) meets a hit whose SCATTER specs include a fraction map (a
+    partly cloudy cell of a cloud shell): it takes the expected value over the map's choice, R = sum p_q R_q and
+    T = sum p_q T_q over the models the hit may use (each as _model_share gives it for such a ray) and the
+    interface alone for the rest, instead of drawing one (which made its transmission all or nothing: a cloud's
+    unscattered beam or the clear sky).  Every choice continues the same way (the specular reflection or the
+    transmission of the boundary, the same refraction and Mueller matrix): only the weight differs, so the mean
+    is the same and the ledger books the expected shares.  ll (latitude, longitude), geo (interface, m1, m2),
+    R and T the interface's, Rf the boundary's Fresnel reflectance.  Returns (R, T)."""
+    lat, lon = ll
+    preach = 1.0
+    Rm = 0.0
+    Tm = 0.0
+    for qq in range(scn):
+        mq, pmix, preach = _spec_share(SC, scf + qq, lat, lon, preach)
+        if pmix > 0.0:
+            if mq >= 0:
+                Rq, Tq, _d, _k, _mk, _P = _model_share(SC, MD, mq, line, cos_i, geo, R, T, Rf, True)
+            else:
+                Rq = R
+                Tq = T
+            Rm += pmix * Rq
+            Tm += pmix * Tq
+        if preach <= 0.0:
+            break
+    return Rm + preach * R, Tm + preach * T
+
+
+@numba.njit(cache=True, inline="always")
 def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, MD, scf, scn, nee, w, nee_cut, o_bc, o_br, fres, ll,
              pos, d, nv, pol, o, j, opl, sx0, sy0, hist, H):
     """Expected-value next-event estimation over a fraction map's choice: when the hit's SCATTER specs include a
@@ -1106,12 +1208,7 @@ def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, MD, scf, scn, nee, 
     o_br: the objects' bounding spheres (apart, not as a tuple: docs/architecture.md), fres (interface, m1, m2, cos_i, Ar, Br, the boundary's unpolarized Fresnel R from
     _specular), ll: the hit's geodetic (latitude, longitude).
     Returns (used, sp, npath)."""
-    ev_nee = False
-    if F_MAPS and F_IMPORTANCE and not nee and scn > 0:
-        for qq in range(scn):
-            if SC.kind[scf + qq] == SPEC_FRACTION_MAP:
-                ev_nee = True
-                break
+    ev_nee = F_MAPS and F_IMPORTANCE and not nee and _has_fraction_map(SC, scf, scn)
     if F_MAPS and F_IMPORTANCE and ev_nee:
         lat, lon = ll
         it, m1, m2, cos_i, Ar, Br, Rfr = fres
@@ -1125,25 +1222,7 @@ def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, MD, scf, scn, nee, 
         kc = 0
         for qq in range(scn):
             spn = scf + qq
-            kd = SC.kind[spn]
-            pmix = preach
-            mq = -1
-            if kd != SPEC_MODEL:
-                mp = SC.map[spn]
-                vq = map_value(SC.map_data, SC.map_off[mp], SC.map_nlat[mp], SC.map_nlon[mp], lat, lon)
-                if kd == SPEC_CLASS_MAP:
-                    cl = int(vq)
-                    if cl >= 0 and cl < SC.cls_n[spn]:
-                        mq = SC.cls_models[SC.cls_off[spn] + cl]
-                    preach = 0.0
-                else:
-                    vq = min(max(vq, 0.0), 1.0)
-                    pmix = preach * vq
-                    mq = SC.model[spn]
-                    preach *= 1.0 - vq
-            else:
-                mq = SC.model[spn]
-                preach = 0.0
+            mq, pmix, preach = _spec_share(SC, spn, lat, lon, preach)
             tq = SC.tgt[spn]
             if mq >= 0 and tq >= 0 and pmix > 0.0:
                 nr = SC.rays[spn]
@@ -1173,42 +1252,14 @@ def _model_split(stack, sp, npath, led, c, r_imp, key, line, SC, MD, spec, geo, 
     o, j, it, m1, m2 = geo
     R, T, Ar, Br, Rfr = fres
     nee, ev_nee = how
-    stq = pol[0]
-    mk = SC.mod_kind[sc]
-    Pm = SC.mod_P[sc].T       # (PMAX, L), line-major in memory (compile.pack)
-    Rb, Tb = _bsdf_albedo(mk, Pm, line, cos_i)
-    w_nee = w
-    keep = 1.0
-    if SC.mod_slab[sc] == 1:
-        # a slab model is the whole interaction; its own sampling includes the direct beam
-        R = 0.0
-        T = 0.0
-        diffuse = Rb + Tb
-        if nee:
-            T = _bsdf_direct(mk, Pm, line, cos_i)
-        if F_REFRACT and it == IF_FRESNEL and MD.n[m1, line] != MD.n[m2, line]:
-            # a slab on a boundary between two media (atmosphere shells): Fresnel reflection at the boundary
-            # first, the slab takes the rest
-            if F_POLAR:
-                Rf = Ar + Br * stq
-            else:
-                Rf = Rfr        # _specular's fresnel_unpolarized(cos_i, n1, n2), the same call
-            R = Rf
-            T *= 1.0 - Rf
-            diffuse *= 1.0 - Rf
-            keep = 1.0 - Rf             # the slab gets only what the boundary lets in: its sampled
-            w_nee = w * keep            # scattering (_diffuse_scatter) and its rays toward the target
-    else:
-        rho = min(1.0, Rb + Tb)
-        R *= (1.0 - rho)
-        T *= (1.0 - rho)
-        diffuse = rho
-    # rays sent toward the target (next-event estimation), exact weights
+    # the boundary's Fresnel reflectance (_specular's fresnel_unpolarized(cos_i, n1, n2), the same call)
+    Rf = Ar + Br * pol[0] if F_POLAR else Rfr
+    R, T, diffuse, keep, mk, Pm = _model_share(SC, MD, sc, line, cos_i, (it, m1, m2), R, T, Rf, nee)
+    # rays sent toward the target (next-event estimation), exact weights; a slab on an index step sends only
+    # what the boundary lets in
     if F_IMPORTANCE and sc_tgt >= 0 and not nee and not ev_nee:
-        sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, 0, mk, Pm, sc_tgt, sc_n, w_nee,
+        sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, 0, mk, Pm, sc_tgt, sc_n, w * keep,
                                  nee_cut, o_bc, o_br, pos, d, nv, pol, o, j, opl, sx0, sy0, hist, H)
-    if nee:
-        diffuse = 0.0      # rays aimed at a target follow only the specular parts
     return R, T, diffuse, keep, mk, Pm, sp, npath
 
 
@@ -1671,11 +1722,19 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                         R, T, scf, scn = _gate(SC, scf, scn, (glat, glon), R, T)
                     # which scatter model applies here: an object's SCATTER specs, tried in order
                     mk = 0
-                    sc, sc_n, sc_tgt = _scatter_spec(SC, scf, scn, (glat, glon), seed, i, ev, path)
+                    cos_i = abs(ci)
+                    if F_MAPS and nee and _has_fraction_map(SC, scf, scn):
+                        # a ray aimed at a target: the expected value over the map's choice (_nee_map_mix)
+                        R, T = _nee_map_mix(SC, MD, scf, scn, (glat, glon), line, cos_i, (it, m1, m2), R, T,
+                                            Ar + Br * stq if F_POLAR else Rfr)
+                        sc = -1
+                        sc_n = 1
+                        sc_tgt = -1
+                    else:
+                        sc, sc_n, sc_tgt = _scatter_spec(SC, scf, scn, (glat, glon), seed, i, ev, path)
                     nvx = nwx if front else -nwx      # the normal on the incoming side
                     nvy = nwy if front else -nwy
                     nvz = nwz if front else -nwz
-                    cos_i = abs(ci)
                     diffuse = 0.0
                     slab_keep = 1.0
                     # a fraction map's models all send their rays toward their targets (expected value)

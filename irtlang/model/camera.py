@@ -190,7 +190,11 @@ def camera_scene(scene: M.Scene, params: dict, span: Span, analyzer: tuple = ())
                 paired=m > 0 or spectral_paired(spectral, m), directions=m,
                 correlated=bool(params.get("correlated")),
                 side=side,
-                lines=sum(mask), spectral=spectral, samples=spectral if spectral > 0 else sum(mask),
+                # samples: the rays per point behind one pixel of one image: SPECTRAL k draws k lines per
+                # point (an image takes its share of them); every line traced: a FILTERS image sums them
+                # all, a line's own image has only its own (the other lines' rays are not its zeros)
+                lines=sum(mask), spectral=spectral,
+                samples=spectral if spectral > 0 else sum(mask) if filters else 1,
                 pixel_size=(px, py))
     return sc2, info
 
