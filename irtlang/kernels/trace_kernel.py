@@ -1141,15 +1141,18 @@ def _model_share(SC, MD, sc, line, cos_i, geo, R, T, Rf, nee):
     it, m1, m2 = geo
     mk = SC.mod_kind[sc]
     Pm = SC.mod_P[sc].T       # (PMAX, L), line-major in memory (compile.pack)
-    Rb, Tb = _bsdf_albedo(mk, Pm, line, cos_i)
     keep = 1.0
     if SC.mod_slab[sc] == 1:
-        # a slab model is the whole interaction; its own sampling includes the direct beam
+        # a slab model is the whole interaction; its own sampling includes the direct beam.  A ray aimed at a
+        # target takes only that beam: its albedo (a table interpolation) would not be used
         R = 0.0
         T = 0.0
-        diffuse = Rb + Tb
         if nee:
+            diffuse = 0.0
             T = _bsdf_direct(mk, Pm, line, cos_i)
+        else:
+            Rb, Tb = _bsdf_albedo(mk, Pm, line, cos_i)
+            diffuse = Rb + Tb
         if F_REFRACT and it == IF_FRESNEL and MD.n[m1, line] != MD.n[m2, line]:
             # a slab on a boundary between two media (atmosphere shells): Fresnel reflection at the boundary
             # first, the slab takes the rest: its sampled scattering (_diffuse_scatter) and its rays toward
@@ -1159,6 +1162,7 @@ def _model_share(SC, MD, sc, line, cos_i, geo, R, T, Rf, nee):
             diffuse *= 1.0 - Rf
             keep = 1.0 - Rf
     else:
+        Rb, Tb = _bsdf_albedo(mk, Pm, line, cos_i)
         rho = min(1.0, Rb + Tb)
         R *= (1.0 - rho)
         T *= (1.0 - rho)
