@@ -7,6 +7,11 @@ frame's 550 nm image and its per-pixel relative standard error), earth_relief_le
 each 0.5 deg cell of ELEVATION puts the ground on, by the rule of examples_scripts/earth_scene.inr) and
 earth_pupil_spectra.png (the first frame's disk spectrum from the pupil's camera-side trace against the forward
 trace's, and with a run of `--set pupil_correlated=1` its correlated-lines spectrum).
+
+    python docs/make_earth_figures.py --clear CLOUDY_RUN CLEAR_RUN docs/img
+
+writes earth_clear_sky.png: the first frame's RGB image beside the same frame of a run with `--set clouds='none'`
+(the glint, the land and the sea ice that the clouds hide).
 """
 from __future__ import annotations
 
@@ -131,7 +136,21 @@ def pupil_spectra(run: Path, out: Path, correlated: Path | None = None) -> Path:
     return _save(fig, out / "earth_pupil_spectra.png", 90)
 
 
-if __name__ == "__main__":
+def clear_sky(cloudy: Path, clear: Path, out: Path) -> Path:
+    fig, axes = plt.subplots(1, 2, figsize=(9, 4.8))
+    for ax, run, what in ((axes[0], cloudy, "the default clouds"), (axes[1], clear, "clouds = 'none'")):
+        f = sorted((run / "rgb").glob("*.png"))[0]
+        ax.imshow(plt.imread(f), origin="upper", interpolation="nearest")
+        t = f.stem
+        ax.set_title(f"{t[:4]}-{t[4:6]}-{t[6:8]} {t[9:11]}:{t[11:13]} UTC, {what}", fontsize=9)
+        ax.axis("off")
+    fig.suptitle("examples_scripts/earth.inr, first frame (650/550/450 nm, I/F)", fontsize=10)
+    return _save(fig, out / "earth_clear_sky.png", 110)
+
+
+if __name__ == "__main__" and sys.argv[1] == "--clear":
+    print(clear_sky(Path(sys.argv[2]), Path(sys.argv[3]), Path(sys.argv[4])))
+elif __name__ == "__main__":
     run, out = Path(sys.argv[1]), Path(sys.argv[2])
     out.mkdir(parents=True, exist_ok=True)
     if (run / "rgb").is_dir() and len(list((run / "rgb").glob("*.png"))) > 1:
