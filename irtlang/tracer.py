@@ -14,7 +14,7 @@ import numpy as np
 
 from .compile.pack import Packed, pack
 from .core.stats import standard_error, total_standard_error  # noqa: F401  (re-exported: irtlang.tracer.standard_error)
-from .compile.specialize import kernel_module
+from .compile.specialize import kernel_lock, kernel_module
 from .kernels.layout import Detectors, Media, Objects, Records, Scatter, Settings, Sources, Surfaces, Tallies
 
 HISTORY_CAP = 16
@@ -169,9 +169,20 @@ class TraceContext:
                                pk.src_lmap)
         self.rcap = 2 * self.mod.CHUNK if records else 1
 
-    def run_batch(self, first: int, n: int, reuse: bool = False) -> BatchTally:
+    def compile(self) -> None:
+        """Compile the kernel (or load it from Numba's cache) once per process, under kernel_lock: a batch of
+        no rays has the same argument types as any other, so it makes the compiled code for them."""
+        if getattr(self.mod, "_irt_ready", False):
+            return
+        with kernel_lock(self.mod):
+            self.run_batch(0, 0, _compiled=True)
+        self.mod._irt_ready = True
+
+    def run_batch(self, first: int, n: int, reuse: bool = False, _compiled: bool = False) -> BatchTally:
         """Trace one batch.  With `reuse` the deposit lists are the context's own buffers, kept from the last
         batch (no fresh pages to fault in per batch): the caller must consume the tally before the next call."""
+        if not _compiled:
+            self.compile()
         pk, L, rows, H = self.pk, self.L, self.rows, self.H
         nch = (n + self.mod.CHUNK - 1) // self.mod.CHUNK
         while True:
@@ -210,7 +221,8 @@ class TraceContext:
                 break
         recs = None
         if self.records:
-            recs = {k: np.concatenate([v[c, :rec_n[c]] for c in range(nch)]) for k, v in rec.items()}
+            recs = {k: (np.concatenate([v[c, :rec_n[c]] for c in range(nch)]) if nch     # (no chunks: a batch
+                        else v.reshape((0,) + v.shape[2:])) for k, v in rec.items()}        # of no rays)
             # the kernel writes positions as double-double (hi, lo): "position" stays the plain double,
             # "position_lo" keeps the rest, so points on an instrument placed 0.18 AU away stay exact
             recs["position"], recs["position_lo"] = recs["position"][:, :3].copy(), recs["position"][:, 3:].copy()

@@ -8,6 +8,7 @@ warm.  A scene with only mirrors therefore compiles no refraction, mesh, media o
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import importlib.util
@@ -137,6 +138,27 @@ def _sources_hash() -> str:
               + sorted((root / "plugins" / "surfaces").glob("*.py")) + sorted((root / "plugins" / "sources").glob("*.py"))):
         h.update(p.read_bytes())
     return h.hexdigest()[:12]
+
+
+@contextlib.contextmanager
+def kernel_lock(mod):
+    """Held while a process compiles (or loads from the cache) the kernel module `mod`: an exclusive lock on a
+    file beside the module's source in the kernel folder.  Two processes that need the same kernel at once
+    (a local cluster's workers, the test suite's two workers, two runs started together) would otherwise both
+    compile it from an empty cache, minutes each; with the lock the second waits and then loads the first one's
+    cached code.  Where the platform has no fcntl, nothing is locked."""
+    try:
+        import fcntl
+    except ImportError:        # not POSIX: no lock (each process compiles, as before)
+        yield
+        return
+    path = Path(mod.__file__).with_suffix(".lock")
+    with open(path, "a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
 
 
 def all_features() -> Features:
