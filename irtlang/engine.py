@@ -233,8 +233,9 @@ class Engine:
     def _trace_camera(self, step, sc, cam, interp):
         """TRACE CAMERA: a camera-side (adjoint) trace (irtlang/model/camera.py).  Its image becomes the camera
         object's, so EXPORT, ANALYZE and the REPL see it as a forward trace's; per-pixel standard errors use the
-        number of rays behind each pixel of each image (camera_scene's samples), not the whole trace's.  With STOKES, six traces
-        behind ideal analyzers (STOKES_ANALYZERS; independent random streams: seed + k 2^40) give I, Q, U, V."""
+        number of rays behind each pixel of each image (camera_scene's samples), not the whole trace's.  With
+        STOKES, six traces behind ideal analyzers (STOKES_ANALYZERS; independent random streams: seed + k 2^40)
+        give I, Q, U, V."""
         import dataclasses
 
         from .compile.pack import MissingFeature

@@ -93,7 +93,7 @@ def test_rays_toward_the_sun_take_the_expected_value_over_a_fraction_map(tmp_pat
     runs below use the same rays per pixel; the ratio of their second moments must be 1 / (1 - p) = 1.67 within
     5 sigma of a jackknife over the pixels' rows, where drawing would give 2.78.  Measured while writing:
     1.678 +- 0.022 (seeds 2 and 3 of the scene: 1.697 +- 0.023, 1.663 +- 0.028); the kernel that drew the choice
-    gave 2.84 on the same runs."""
+    gave 2.84 on the same scene and seed."""
     n = 16
     runs = {}
     for scene in ("lambert", "cloud"):
