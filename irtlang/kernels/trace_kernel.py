@@ -886,18 +886,13 @@ def _scatter_spec(SC, first, cnt, ll, seed, i, ev, path):
             kd = SC.kind[spn]
             if F_MAPS and kd != SPEC_MODEL:
                 lat, lon = ll
-                mp = SC.map[spn]
-                v = map_value(SC.map_data, SC.map_off[mp], SC.map_nlat[mp], SC.map_nlon[mp], lat, lon)
-                if kd == SPEC_CLASS_MAP:
-                    cl = int(v)
-                    if cl >= 0 and cl < SC.cls_n[spn]:
-                        sc = SC.cls_models[SC.cls_off[spn] + cl]
-                else:
+                # a class map's model (-1: a class without one), or a fraction map's with its fraction v
+                mq, v, _rest = _spec_share(SC, spn, lat, lon, 1.0)
+                if kd != SPEC_CLASS_MAP:
                     uc, _u = uniform2(seed, i, ev, path * 64 + 59 - qq)
-                    if uc < v:
-                        sc = SC.model[spn]
-                    else:
+                    if uc >= v:
                         continue
+                sc = mq
             else:
                 sc = SC.model[spn]
             sc_n = SC.rays[spn]
