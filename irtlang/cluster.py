@@ -204,9 +204,10 @@ class DaskRunner:
             try:
                 fut = self.client.scatter(ctx.pk, broadcast=True, hash=False)
                 break
-            except (ValueError, OSError) as e:
+            except (ValueError, OSError, KeyError) as e:
                 # the last worker left between the two calls (no worker, or its stream closed under the
-                # scatter): wait for the next one
+                # scatter), or a worker left while the scheduler broadcast to the list it had just taken (its
+                # KeyError, seen when a cluster scaled down under load): wait and try again
                 if attempt == 9:
                     raise ClusterError(f"the scene could not be sent to a Dask worker in 10 tries ({e})") from None
                 time.sleep(0.2)

@@ -16,6 +16,13 @@ Conventions
   in the algebraically equal form ``mu = w + 2 g u (1 - u) (3 - g^2 + 2 g w) / (1 + g w)^2`` with w = 2u - 1
   (expand both over (1 + g w)^2): no division by g, no cancellation as g -> 0 (it tends to the isotropic
   mu = w), and exactly -1 and 1 at u = 0 and 1.
+* ``systematic_keep(total, p, u0)``: systematic sampling of a sequence of Russian-roulette decisions
+  (survival probabilities p_1, p_2, ... < 1, drawn against ONE uniform u0 per sequence): candidate k survives when
+  the interval [P_k, P_k + p_k), P_k = p_1 + ... + p_(k-1), holds a point u0 + m (m an integer).  Over u0 each
+  candidate survives with probability exactly p_k (the interval is p_k long, mod 1), as with an independent
+  draw, but the number of survivors among any run of candidates is floor or ceil of their summed p: the
+  roulette's count no longer fluctuates.  Unbiased when which candidates arise, and their p, do not depend on
+  u0.  Returns (kept, P_k + p_k).
 * ``onb(nx, ny, nz)``: the branchless orthonormal basis of Duff et al. (JCGT 6(1), 2017), ``(t1, t2, n)``
   right-handed (t1 x t2 = n); the normal is normalised first.
 """
@@ -38,6 +45,7 @@ __all__ = [
     "uniform_sphere",
     "uniform_sphere_pdf",
     "hg_sample",
+    "systematic_keep",
     "hg_pdf",
     "hg_direction",
 ]
@@ -201,3 +209,12 @@ def hg_direction(u0, u1, g, dx, dy, dz):
     phi = TWO_PI * u1
     x, y, z = to_frame(s * math.cos(phi), s * math.sin(phi), mu, dx, dy, dz)
     return _unit(x, y, z)
+
+
+@numba.njit(cache=True, fastmath=False)
+def systematic_keep(total, p, u0):
+    """Systematic roulette (module docstring): whether the candidate of survival probability p (0 <= p < 1), after
+    candidates whose probabilities sum to total, survives against the sequence's one uniform u0; and the new
+    total."""
+    after = total + p
+    return math.floor(after - u0) > math.floor(total - u0), after

@@ -45,7 +45,7 @@ from .optics import fresnel_unpolarized, refract
 from .polar import (azimuth_angle, diattenuate, frame, fresnel_mueller, metal_mueller, perpendicular, rayleigh_mueller,
                     rotate, scatter_stokes)
 from .rng import uniform2
-from .sampling import onb
+from .sampling import onb, systematic_keep
 
 # ---- features (rewritten by irtlang.compile.specialize) ----
 F_CONIC = True
@@ -66,6 +66,8 @@ F_POLAR = True
 
 CHUNK = 1024
 SMAX = 256          # pending paths per source ray (splitting, rays toward a target)
+POOL = SMAX         # the stack's row after the last entry: the source ray's next-event roulette (_nee_roulette):
+                    # [POOL, 0] the survival probabilities summed so far, [POOL, 1] the ray's one uniform
 MAX_PATHS = 4096    # paths per source ray: past this, RAYS n no longer splits (still unbiased); without a
                     # bound, k scatterings make n^k paths and a closed scattering scene never ends
 NEE_STRAIGHT_DN = 1e-3   # rays sent toward a target cross index steps smaller than this without bending
@@ -357,14 +359,22 @@ def _roulette(w, w0, halt, u):
 
 
 @numba.njit(cache=True, inline="always")
-def _nee_roulette(cw, ref, cut, u):
+def _nee_roulette(stack, cw, ref, cut):
     """Russian roulette of a ray sent toward a target (HALT ... IMPORTANCE cut): below cut times ref (what a
     white Lambertian surface would send) it survives with probability cw / (cut ref), carrying cut ref;
-    unbiased, and the flux it would have carried is simply not sent (the ledger books only what is sent)."""
+    unbiased, and the flux it would have carried is simply not sent (the ledger books only what is sent).
+    The decisions of one source ray's candidates (every path it spawns) are drawn systematically against one
+    uniform (sampling.systematic_keep; the pool in the stack's row POOL): each survives with its own
+    probability, but how many survive is the floor or ceiling of their summed probabilities, so a path that
+    sends a weak ray at each of 15 thin layers sends one or two, not a Poisson number of them.  The callers
+    count every candidate in the path ids (npath), kept or not, so that which candidates arise does not depend
+    on that uniform."""
     p = cw / (cut * ref)
     if p >= 1.0:
         return cw
-    return cut * ref if u < p else 0.0
+    kept, total = systematic_keep(stack[POOL, 0], p, stack[POOL, 1])
+    stack[POOL, 0] = total
+    return cut * ref if kept else 0.0
 
 
 @numba.njit(cache=True, inline="always")
@@ -933,14 +943,17 @@ def _volume_toward(stack, sp, npath, led, c, r_imp, line, key, nr, pk, gg, gam, 
             else:
                 nex, ney, nez = frame(ox_, oy_, oz_, ex, ey, ez)   # HG depolarizes
         cw = w * _phase(pk, gg, gam, mu_) * pf * om / nr
-        if nee_cut > 0.0 and cw > 0.0:
-            cw = _nee_roulette(cw, w * om / (math.pi * nr), nee_cut, uniform2(seed, i, ev, path * 64 + 9 + 2 * q)[0])
+        cand = cw > 0.0
+        if nee_cut > 0.0 and cand:
+            cw = _nee_roulette(stack, cw, w * om / (math.pi * nr), nee_cut)
         if cw > 0.0 and sp < SMAX:
             _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, cw, ev, -1.0, 1.0, npath, FL_SCATTERED,
                   -1.0, opl, sx0, sy0, hist, H, nq, nu, nv, nex, ney, nez)
             sp += 1
             npath += 1
             led[c, r_imp, C_ABS, line] -= cw
+        elif nee_cut > 0.0 and cand:
+            npath += 1      # a candidate the roulette dropped keeps its path id (_nee_roulette)
     return sp, npath
 
 
@@ -985,7 +998,8 @@ def _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, kc, mk, P, tgt, nr,
                  pol, o, j, opl, sx0, sy0, hist, H):
     """Next-event estimation at a surface: nr rays toward the target's bounding sphere with the exact weights
     w f |cos| Omega / nr (w: the path's weight times the model's probability here), pushed on the stack and
-    booked negative on the IMPORTANCE row.  Random streams path * 64 + 8 + 2 (kc + q) and + 9.  The ray's state
+    booked negative on the IMPORTANCE row.  Random stream path * 64 + 8 + 2 (kc + q) (+ 9 unused since the
+    roulette became systematic, _nee_roulette: (event 0, dimension 7) of the source ray).  The ray's state
     comes as tuples: key (seed, ray, event, path), pos (double-double position), d, nv (the normal on the
     incoming side), pol (q, u, v, e1).  Returns (sp, npath)."""
     seed, i, ev, path = key
@@ -1005,8 +1019,9 @@ def _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, kc, mk, P, tgt, nr,
                                                           stq, stu, stv, ex, ey, ez)
             f *= pf
         cw = w * f * abs(co) * om / nr
-        if nee_cut > 0.0 and cw > 0.0:
-            cw = _nee_roulette(cw, w * om / (math.pi * nr), nee_cut, uniform2(seed, i, ev, path * 64 + 9 + 2 * qd)[0])
+        cand = cw > 0.0
+        if nee_cut > 0.0 and cand:
+            cw = _nee_roulette(stack, cw, w * om / (math.pi * nr), nee_cut)
         if cw > 0.0 and sp < SMAX:
             if F_HISTORY and ev - 1 < H:
                 hist[ev - 1] = o * 8 + EV_S
@@ -1015,6 +1030,8 @@ def _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, kc, mk, P, tgt, nr,
             sp += 1
             npath += 1
             led[c, r_imp, C_ABS, line] -= cw
+        elif nee_cut > 0.0 and cand:
+            npath += 1      # a candidate the roulette dropped keeps its path id (_nee_roulette)
     return sp, npath
 
 
@@ -1561,7 +1578,7 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
             src_toward, src_pts, src_pts_off, src_lmap)
         ndep = 0
         nrec = 0
-        stack = np.empty((SMAX, SWP + H))
+        stack = np.empty((SMAX + 1, SWP + H))     # + the row POOL
         hist = np.full(max(H, 1), -1.0)
         Pm = mod_P[0].T
         # per source ray: incident flux per object, so that inc_sq and the images' squares sum the squares of
@@ -1585,6 +1602,10 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                 dep0 = ndep
             for h in range(H):
                 hist[h] = -1.0
+            if F_IMPORTANCE and nee_cut > 0.0:
+                # the source ray's next-event roulette: nothing drawn yet, and its one uniform (_nee_roulette)
+                stack[POOL, 0] = 0.0
+                stack[POOL, 1] = uniform2(seed, i, 0, 7)[0]
             # the source ray's own path starts from these locals; split paths and rays sent toward a target
             # wait on the stack (the same state a push/pop would give, without the 2 x 20 memory moves)
             w0 = w

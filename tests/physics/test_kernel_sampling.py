@@ -236,3 +236,24 @@ def test_onb():
         assert np.allclose(np.cross(t1, t2), nu, atol=2e-15)
     # to_frame maps +z to n
     assert np.allclose(S.to_frame(0.0, 0.0, 1.0, 1.0, 2.0, 2.0), np.array([1, 2, 2]) / 3, atol=1e-16)
+
+
+def test_systematic_roulette_keeps_each_candidate_with_its_probability():
+    """sampling.systematic_keep against the definition of Russian roulette: over the sequence's uniform u0 each
+    candidate must survive with exactly its probability p_k (here u0 on a midpoint grid of 100,000 values: the
+    frequency of an interval of length p_k mod 1 is p_k to within 1e-5), and for every u0 the number of survivors
+    of the first k candidates must be the floor or the ceiling of p_1 + ... + p_k (independent draws give any
+    number from 0 to k).  The oracle is the roulette's own definition, not the code's."""
+    rng = np.random.default_rng(5)
+    p = np.concatenate([rng.uniform(0.0, 1.0, 40), [0.0, 0.999999, 1e-9, 0.5, 0.5]])
+    n = 100_000
+    u0s = (np.arange(n) + 0.5) / n
+    kept = np.zeros((n, p.size), bool)
+    for a, u0 in enumerate(u0s):
+        total = 0.0
+        for k, pk in enumerate(p):
+            kept[a, k], total = S.systematic_keep(total, pk, u0)
+    assert np.all(np.abs(kept.mean(0) - p) <= 1.5 / n), np.abs(kept.mean(0) - p).max()
+    counts = np.cumsum(kept, axis=1)
+    sums = np.cumsum(p)
+    assert np.all(counts >= np.floor(sums - 1e-9)) and np.all(counts <= np.ceil(sums + 1e-9))

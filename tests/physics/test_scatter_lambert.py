@@ -26,6 +26,7 @@ import math
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -217,4 +218,43 @@ TRACE
     img, img_sq = res.images["det"]
     assert img.sum() == pytest.approx(res.ledger[1, 0].sum(), rel=1e-12)
     assert img_sq.sum() == pytest.approx(res.ledger_sq[1].sum(), rel=1e-12)
+    assert ledger_gap(res) < 1e-12
+
+
+# ------------------------------------------------------------------------ the next-event roulette (IMPORTANCE)
+def test_next_event_roulette_is_systematic_and_unbiased(tmp_path):
+    """HALT 0 IMPORTANCE 1 with RAYS 4 toward the detector: each hit's four next-event candidates carry
+    cw = w (rho / pi) cos(s) Omega / 4, below what a white Lambertian would send, so each plays roulette with
+    p = rho cos(s) (_nee_roulette; s the angle between the normal and the detector).  Oracles:
+    * Russian roulette keeps the mean: the detector's flux against the Lambert-sphere closed form (as above),
+      within 5 of the run's own standard errors;
+    * the candidates of a source ray are decided systematically: the rays each source ray sends number the
+      floor or the ceiling of 4 p (independent draws give 0 to 4: with p = 0.6 cos(s) most hits would show a
+      count 1 or more away from 4 p).  Counted from the per-path records (one per path end: the source ray's own
+      path ends absorbed on the ball, where its position gives the normal)."""
+    alpha = 57.7
+    n = 20_000
+    text = sphere_script(alpha, n).replace("SCATTER MODEL paint TOWARD det", "SCATTER MODEL paint RAYS 4 TOWARD det")
+    text = text.replace("HALT 0\n", "HALT 0 IMPORTANCE 1\n")
+    res = trace_text(tmp_path, text)
+    rec = res.records
+    obj = np.asarray(rec["object"])
+    scattered = (np.asarray(rec["flags"]) & 1) != 0
+    # the records come per source ray in order: its own path's (its last hit: the ball, where it scattered
+    # before escaping), then those of the rays it sent (each from the ball toward det: last hit det, or none)
+    ball = res.rows.index("ball")
+    own = obj == ball
+    group = np.cumsum(own)
+    sent_rec = scattered & ~own & (group > 0)
+    sent = np.bincount(group[sent_rec], minlength=own.sum() + 1)[1:]
+    pos = np.asarray(rec["position"])[own][:, :3]
+    d = np.array([math.sin(math.radians(alpha)), 0.0, math.cos(math.radians(alpha))])
+    cos_s = (pos / np.linalg.norm(pos, axis=1)[:, None]) @ d
+    expected = 4 * ALBEDO * np.clip(cos_s, 0.0, None)
+    assert own.sum() > 0.5 * n
+    assert np.all(np.abs(sent - expected) < 1.0 + 1e-3), np.abs(sent - expected).max()
+    assert np.mean(np.abs(sent - expected)) > 0.1      # the roulette did act (not every candidate sent)
+    expect = (2.0 / 3.0) * ALBEDO * E * (R / D) ** 2 * phi_lambert(alpha) * math.pi * R_DET ** 2
+    flux, se = res.flux_on(res.rows.index("det"))
+    assert abs(flux - expect) <= 5 * se, (flux, expect, se, (flux - expect) / se)
     assert ledger_gap(res) < 1e-12
