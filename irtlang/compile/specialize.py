@@ -17,12 +17,13 @@ import re
 import sys
 from pathlib import Path
 
-from .pack import Features
+from .pack import KIND_FIELDS, Features
 
 _FLAGS = {"conic": "F_CONIC", "quadric": "F_QUADRIC", "mesh": "F_MESH", "refract": "F_REFRACT",
           "absorb_media": "F_ABSORB_MEDIA", "precise": "F_PRECISE", "records": "F_RECORDS", "history": "F_HISTORY",
           "scatter": "F_SCATTER", "maps": "F_MAPS", "volume": "F_VOLUME", "importance": "F_IMPORTANCE",
-          "shells": "F_SHELLS", "polar": "F_POLAR"}
+          "shells": "F_SHELLS", "polar": "F_POLAR",
+          "camera": "F_CAMERA"}
 _FUNCS = ("sample", "eval", "albedo", "direct", "mueller")
 _SIGS = {"sample": "P, k, wix, wiy, wiz, nx, ny, nz, u0, u1, u2",
          "eval": "P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz", "albedo": "P, k, cos_i", "direct": "P, k, cos_i",
@@ -86,15 +87,18 @@ def surface_dispatch(features: Features) -> str:
     return "\n".join(lines) + "\n"
 
 
-def source_dispatch() -> str:
+def source_dispatch(kinds=()) -> str:
     """Source of the kernel's source dispatch (``_source_emit``, ``_source_direction``, ``_source_lambert``,
-    ``_source_toward``) over every registered source kind (irtlang/plugins/sources/__init__.py)."""
+    ``_source_toward``) over the source kinds `kinds` (``Features.source_kinds``; all of them when empty) of the
+    registry (irtlang/plugins/sources/__init__.py).  A code outside them gets the fallbacks below (never
+    reached: a kernel is compiled for its scene's kinds)."""
     from ..plugins.sources import EMITTER_CODES, REGISTRY
 
+    use = set(kinds) if kinds else set(REGISTRY)
     lines = ["from irtlang.plugins.sources._common import lambert as _lambert_default",
              "from irtlang.plugins.sources._common import toward as _toward_default"]
-    emit = [(EMITTER_CODES[k], REGISTRY[k]) for k in EMITTER_CODES]
-    dirs = [m for m in REGISTRY.values() if hasattr(m, "DIRECTION_CODES")]
+    emit = [(EMITTER_CODES[k], REGISTRY[k]) for k in EMITTER_CODES if k in use]
+    dirs = [m for k, m in REGISTRY.items() if hasattr(m, "DIRECTION_CODES") and k in use]
     for code, m in emit:
         for f in ("emit", "lambert", "toward"):
             if hasattr(m, f):
@@ -166,8 +170,11 @@ def all_features() -> Features:
     from ..plugins.bsdfs import REGISTRY
 
     # every flag but polarization (it changes results: the scene's own), surface kinds without a template flag too
-    f = Features(**{k: True for k in Features.__dataclass_fields__ if k not in ("polar", "bsdf_kinds")})
+    from ..plugins.sources import REGISTRY as SOURCES
+
+    f = Features(**{k: True for k in Features.__dataclass_fields__ if k not in ("polar",) + KIND_FIELDS})
     f.bsdf_kinds = tuple(REGISTRY)
+    f.source_kinds = tuple(SOURCES)
     return f
 
 
@@ -185,10 +192,12 @@ def kernel_module(features: Features):
     template = (Path(__file__).resolve().parents[1] / "kernels" / "trace_kernel.py").read_text()
     text = template
     for field, flag in _FLAGS.items():
-        text = re.sub(rf"^{flag} = (True|False)$", f"{flag} = {bool(getattr(features, field))}", text, flags=re.M)
+        text, n = re.subn(rf"^{flag} = (True|False)$", f"{flag} = {bool(getattr(features, field))}", text, flags=re.M)
+        if n != 1:      # the template's line must read exactly "F_X = True" (no comment after it)
+            raise RuntimeError(f"kernel template: no line '{flag} = True|False' to specialize")
     a = text.index("# ---- source dispatch")
     b = text.index("# ---- end of source dispatch ----")
-    text = text[:a] + "# ---- source dispatch (generated) ----\n" + source_dispatch() + text[b:]
+    text = text[:a] + "# ---- source dispatch (generated) ----\n" + source_dispatch(features.source_kinds) + text[b:]
     a = text.index("# ---- surface dispatch")
     b = text.index("# ---- end of surface dispatch ----")
     text = text[:a] + "# ---- surface dispatch (generated) ----\n" + surface_dispatch(features) + text[b:]

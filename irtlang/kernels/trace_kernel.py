@@ -62,6 +62,7 @@ F_VOLUME = True
 F_IMPORTANCE = True
 F_SHELLS = True
 F_POLAR = True
+F_CAMERA = True
 # ---- end of features ----
 
 CHUNK = 1024
@@ -448,12 +449,12 @@ def _gen(i, total, seed, SRC, o_bc, o_br, src_dw):
     n = SRC.n[s]
     slot = 0 if j < n else j // n
     q = j - slot * n
-    if SRC.par[s, SP_CORRELATED] > 0.0:
+    if F_CAMERA and SRC.par[s, SP_CORRELATED] > 0.0:
         i -= slot * n
     pm = 0
     st = 0
-    nd = int(SRC.par[s, SP_DIRECTIONS])
-    if nd > 0:
+    nd = int(SRC.par[s, SP_DIRECTIONS]) if F_CAMERA else 0
+    if F_CAMERA and nd > 0:
         # DIRECTIONS m: 2 m^2 rays per start point, two in each stratum (consecutive ids: the pair)
         per = 2 * nd * nd
         pos = q // per
@@ -461,7 +462,7 @@ def _gen(i, total, seed, SRC, o_bc, o_br, src_dw):
         st = r >> 1
         pm = 1 + (r & 1)
         q = pos
-    if SRC.random[s] == SAMPLE_SPECTRAL:
+    if F_CAMERA and SRC.random[s] == SAMPLE_SPECTRAL:
         # a camera's spectral samples: slot k of K draws its line from the bands' weights, stratified over
         # their cumulative distribution (rows (cdf, line) in SRC.pts; SRC.w holds weight / (pmf K))
         ul, _ul = uniform2(seed, i, 0, 2)
@@ -521,14 +522,14 @@ def _gen(i, total, seed, SRC, o_bc, o_br, src_dw):
         cy = o_bc[tgt, 1] - SRC.Th[s, 1] - SRC.Tl[s, 1]
         cz = o_bc[tgt, 2] - SRC.Th[s, 2] - SRC.Tl[s, 2]
         kx, ky, kz, omc = _cone_to(wx, wy, wz, cx, cy, cz, o_br[tgt])
-        if nd > 0:      # the pair's stratum: m bands of equal solid angle in cos(angle) by m in azimuth
+        if F_CAMERA and nd > 0:      # the pair's stratum: m bands of equal solid angle in cos(angle) by m in azimuth
             u2 = (st % nd + u2) / nd
             u3 = (st // nd + u3) / nd
             if SRC.par[s, SP_PILOT] > 0.0:
                 # a GUIDE's pilot: its tally bins by stratum and tile (DETECTOR ... START)
                 lx = st + 0.5
                 ly = _guide_tile(SRC.par, s, q, int(SRC.par[s, SP_GUIDE_T])) + 0.5
-        elif SRC.par[s, SP_GUIDE] > 0.0:
+        elif F_CAMERA and SRC.par[s, SP_GUIDE] > 0.0:
             u2, u3, gw = _guide(SRC, s, q, u2, u3)
             w *= gw
         dwx, dwy, dwz = _cone_dir(u2, u3, omc, kx, ky, kz)
@@ -1806,7 +1807,7 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                                 rec_opl, rec_start, c, nrec, (hx, hy, hz, hlx, hly, hlz), (adx, ady, adz), aw, line,
                                 s, last, ev, flags, opl, sx0, sy0, hist, H)
                     nrec += 1
-            if pm == 1:
+            if F_CAMERA and pm == 1:
                 # the first ray of a stratified pair: its tallies wait for the second's
                 for q in range(nt):
                     acc0[touched[q]] = acc[touched[q]]
@@ -1814,7 +1815,7 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                 line0 = line
                 dep1 = ndep
                 continue
-            if pm == 2:
+            if F_CAMERA and pm == 2:
                 _close_pair(inc_sq, c, line0, line, acc0, acc, touched, nt)
                 for q in range(dep1, min(ndep, cap)):
                     dep_d[c, q] = -dep_d[c, q]
@@ -1822,7 +1823,7 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                 _close_source_ray(inc_sq, c, line, acc, touched, nt)
             if ndep - dep0 > 1 and ndep <= cap:
                 ndep = _merge_deposits(dep_idx, dep_w, dep_d, c, dep0, ndep)
-                if pm == 2:
+                if F_CAMERA and pm == 2:
                     # one group: reduce_batch squares the pair's difference per image, summed over its lines
                     for q in range(dep0 + 1, ndep):
                         dep_idx[c, q] = -dep_idx[c, q] - 1

@@ -62,3 +62,7 @@ def test_mirrors_only_scene_compiles_no_other_features(monkeypatch):
     mod = specialize.kernel_module(f)
     assert (mod.F_REFRACT, mod.F_SCATTER, mod.F_MAPS, mod.F_VOLUME, mod.F_MESH, mod.F_RECORDS) == (False,) * 6
     assert mod.F_CONIC is True
+    # a forward trace compiles no camera sampling, and only its own source kinds' dispatch
+    assert not f.camera and mod.F_CAMERA is False
+    assert f.source_kinds == ("GRID DISK", "SOURCE DIRECTION")
+    assert "emitting_sphere" not in open(mod.__file__).read()

@@ -50,6 +50,27 @@ def test_contract_and_dispatch():
     assert sorted(codes) == sorted(set(codes)), "a direction code claimed twice"
 
 
+@pytest.mark.parametrize("kind", list(REGISTRY))
+def test_a_kernel_dispatches_over_its_scenes_source_kinds_only(kind):
+    """compile.pack.source_kinds_of maps the packed codes back to the kinds (each registered kind alone, and a
+    collimated grid: GRID DISK + SOURCE DIRECTION), and the dispatch generated for a kind set has those kinds'
+    branches and no other (a smaller kernel to compile: docs/architecture.md, "Compile time")."""
+    from irtlang.compile.pack import source_kinds_of
+
+    m = REGISTRY[kind]
+    if hasattr(m, "emit"):
+        assert source_kinds_of([EMITTER_CODES[kind]], [layout.DIR_LAMBERT]) == (kind,)
+    else:
+        for c in m.DIRECTION_CODES:
+            assert source_kinds_of([], [c]) == (kind,)
+    pair = source_kinds_of([EMITTER_CODES["GRID DISK"]], [layout.DIR_COLLIMATED])
+    assert pair == ("GRID DISK", "SOURCE DIRECTION")
+    src = specialize.source_dispatch((kind,))
+    for k, other in REGISTRY.items():
+        assert (f"import {'emit' if hasattr(other, 'emit') else 'direction'} as" in src
+                and other.__name__ in src) == (k == kind), k
+
+
 # kind, par, a check of the start point
 CASES = {
     "GRID RECT": ((-2.0, 3.0, -1.0, 5.0, 10, 20, 0, 0, 1.0), lambda x, y, z: -2 <= x <= 3 and -1 <= y <= 5 and z == 0),
