@@ -45,9 +45,9 @@ __all__ = [
     "uniform_sphere",
     "uniform_sphere_pdf",
     "hg_sample",
-    "systematic_keep",
     "hg_pdf",
     "hg_direction",
+    "systematic_keep",
 ]
 
 PI = math.pi

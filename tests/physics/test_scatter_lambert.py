@@ -230,8 +230,9 @@ def test_next_event_roulette_is_systematic_and_unbiased(tmp_path):
       within 5 of the run's own standard errors;
     * the candidates of a source ray are decided systematically: the rays each source ray sends number the
       floor or the ceiling of 4 p (independent draws give 0 to 4: with p = 0.6 cos(s) most hits would show a
-      count 1 or more away from 4 p).  Counted from the per-path records (one per path end: the source ray's own
-      path ends absorbed on the ball, where its position gives the normal)."""
+      count 1 or more away from 4 p).  Counted from the per-path records (one per path end, holding its last hit:
+      the source ray's own path scatters on the ball and escapes, so its record holds the hit on the ball, whose
+      position gives the normal)."""
     alpha = 57.7
     n = 20_000
     text = sphere_script(alpha, n).replace("SCATTER MODEL paint TOWARD det", "SCATTER MODEL paint RAYS 4 TOWARD det")

@@ -1,5 +1,7 @@
 """Specialized kernels (one per scene feature set) agree with the all-features kernel the other tests use, and a
 mirrors-only scene's kernel is compiled without refraction, scattering, maps, volumes or records."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -65,4 +67,4 @@ def test_mirrors_only_scene_compiles_no_other_features(monkeypatch):
     # a forward trace compiles no camera sampling, and only its own source kinds' dispatch
     assert not f.camera and mod.F_CAMERA is False
     assert f.source_kinds == ("GRID DISK", "SOURCE DIRECTION")
-    assert "emitting_sphere" not in open(mod.__file__).read()
+    assert "emitting_sphere" not in Path(mod.__file__).read_text()
