@@ -163,9 +163,16 @@ def disc(b, a, c):
     return (p - q) + (dp - dq)
 
 
+# Within this range of x^2 + y^2 + z^2 the sum neither overflows nor loses relative precision to underflow
+# (a square below 1e-308 is under 1e-28 of the sum), so the norm is its square root; outside it the vector is
+# first scaled by its largest component.  The scaled form costs three or six divisions, which the nearest-hit
+# search of a shell atmosphere pays on every surface it tests (docs/architecture.md, "Divisions").
+SQ_LO = 1e-280
+SQ_HI = 1e280
+
+
 @numba.njit(cache=True, fastmath=False)
-def norm3(x, y, z):
-    """Euclidean norm without overflow/underflow."""
+def _norm3_scaled(x, y, z):
     m = max(abs(x), abs(y), abs(z))
     if m == 0.0 or not math.isfinite(m):
         return m
@@ -175,9 +182,32 @@ def norm3(x, y, z):
     return m * math.sqrt(x * x + y * y + z * z)
 
 
+@numba.njit(cache=True, fastmath=False)
+def norm3(x, y, z):
+    """Euclidean norm without overflow/underflow."""
+    s = x * x + y * y + z * z
+    if s > SQ_LO and s < SQ_HI:
+        return math.sqrt(s)
+    return _norm3_scaled(x, y, z)
+
+
+@numba.njit(cache=True, fastmath=False, inline="always")
+def unit_in_range(x, y, z):
+    """(True, unit vector along (x, y, z)) where its squared norm is within (SQ_LO, SQ_HI), else (False, x, y,
+    z): the callers scale such a vector first (and each keeps its own answer for a zero or non-finite one)."""
+    s = x * x + y * y + z * z
+    if s > SQ_LO and s < SQ_HI:
+        r = 1.0 / math.sqrt(s)
+        return True, x * r, y * r, z * r
+    return False, x, y, z
+
+
 @numba.njit(cache=True, fastmath=False, inline="always")
 def normalize3(x, y, z):
     """Unit vector along (x, y, z); the zero vector maps to (0, 0, 1)."""
+    ok, ux, uy, uz = unit_in_range(x, y, z)
+    if ok:
+        return ux, uy, uz
     m = max(abs(x), abs(y), abs(z))
     if m == 0.0 or not math.isfinite(m):
         return 0.0, 0.0, 1.0
@@ -471,7 +501,8 @@ def hit_sphere(ox, oy, oz, dx, dy, dz, R):
     if a == 0.0 or not math.isfinite(a):
         return INF, INF
     b = ox * dx + oy * dy + oz * dz
-    f = b / a
+    ia = 1.0 / a
+    f = b * ia
     ln = norm3(ox - f * dx, oy - f * dy, oz - f * dz)
     dpa = (R - ln) * (R + ln)  # (b^2 - a c) / a
     if not (dpa >= 0.0):
@@ -483,13 +514,13 @@ def hit_sphere(ox, oy, oz, dx, dy, dz, R):
     if q == 0.0:
         # b == 0 and tangent through... only if c == 0 too (origin on sphere, tangent direction)
         return 0.0, 0.0
-    t1 = _finite_or_inf(q / a)
+    t1 = _finite_or_inf(q * ia)
     t2 = c / q
     # the roots are -b/a +- sq/a; c and the geometric discriminant are rounded independently, so when q is
     # as small as the rounding of c (a tangent ray leaving the sphere) c / q is noise over noise and can
     # land anywhere (a spurious hit millimetres away): keep it inside the roots' interval
-    mid = -b / a
-    h = sq / a
+    mid = -f
+    h = sq * ia
     if abs(t2 - mid) > h + 1e-15 * (abs(mid) + h):
         t2 = mid + math.copysign(h, t2 - mid)
     return _sort2(t1, _finite_or_inf(t2))
@@ -504,13 +535,19 @@ def sphere_normal(x, y, z):
 @numba.njit(cache=True, fastmath=False)
 def hit_ellipsoid(ox, oy, oz, dx, dy, dz, a, b, c):
     """Ellipsoid x^2/a^2 + y^2/b^2 + z^2/c^2 = 1: (t1, t2) in the caller's ray parameter."""
-    return hit_sphere(ox / a, oy / b, oz / c, dx / a, dy / b, dz / c, 1.0)
+    ia = 1.0 / a        # (one division per distinct semi-axis: a spheroid's a = b)
+    ib = ia if b == a else 1.0 / b
+    ic = ia if c == a else 1.0 / c
+    return hit_sphere(ox * ia, oy * ib, oz * ic, dx * ia, dy * ib, dz * ic, 1.0)
 
 
 @numba.njit(cache=True, fastmath=False)
 def ellipsoid_normal(x, y, z, a, b, c):
     """Outward unit normal of the ellipsoid at (x, y, z): along (x/a^2, y/b^2, z/c^2)."""
-    return normalize3((x / a) / a, (y / b) / b, (z / c) / c)
+    ia = 1.0 / a
+    ib = ia if b == a else 1.0 / b
+    ic = ia if c == a else 1.0 / c
+    return normalize3(x * ia * ia, y * ib * ib, z * ic * ic)
 
 
 # ----------------------------------------------------------------------------------------------------

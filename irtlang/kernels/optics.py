@@ -18,6 +18,8 @@ import math
 import numba
 import numpy as np
 
+from .geometry import unit_in_range
+
 __all__ = ["fresnel_rs_rp", "fresnel_unpolarized", "refract", "reflect", "beer_transmission"]
 
 
@@ -57,6 +59,9 @@ def fresnel_unpolarized(cos_i, n1, n2):
 
 @numba.njit(cache=True, fastmath=False)
 def _unit(x, y, z):
+    ok, ux, uy, uz = unit_in_range(x, y, z)
+    if ok:
+        return ux, uy, uz
     m = max(abs(x), abs(y), abs(z))
     if m == 0.0:
         return 0.0, 0.0, 0.0

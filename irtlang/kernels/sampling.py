@@ -31,6 +31,8 @@ import math
 import numba
 import numpy as np
 
+from .geometry import unit_in_range
+
 __all__ = [
     "onb",
     "to_frame",
@@ -58,6 +60,9 @@ INV_4PI = 0.25 / math.pi
 
 @numba.njit(cache=True, fastmath=False)
 def _unit(x, y, z):
+    ok, ux, uy, uz = unit_in_range(x, y, z)
+    if ok:
+        return ux, uy, uz
     m = max(abs(x), abs(y), abs(z))
     if m == 0.0 or not math.isfinite(m):
         return 0.0, 0.0, 1.0

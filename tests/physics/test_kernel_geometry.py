@@ -520,3 +520,34 @@ def test_self_hit_tmin():
     assert G.self_hit_tmin(0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 150.0) == pytest.approx(1.5e-7)
     assert G.self_hit_tmin(6.4e6, 0.0, 0.0, 0.0, 0.0, 2.0, 1.0) == pytest.approx(3.2e-3)
     assert G.self_hit_tmin(1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0) == np.inf
+
+
+def _exact_norm(x, y, z):
+    """The Euclidean norm in 60-digit decimal arithmetic (an oracle independent of the kernels' float code)."""
+    from decimal import Decimal, getcontext
+
+    getcontext().prec = 60
+    return float((Decimal(x) ** 2 + Decimal(y) ** 2 + Decimal(z) ** 2).sqrt())
+
+
+@pytest.mark.parametrize("scale", [1e-300, 1e-200, 1e-145, 1e-10, 1.0, 6.4e6, 1e140, 1e200, 1e300])
+def test_norms_and_unit_vectors_to_rounding_at_every_magnitude(scale):
+    """norm3, normalize3 and the interface optics' and samplers' unit vectors: within 2 ulp of the exact norm
+    (decimal arithmetic) on both sides of their fast path's range (1e-280 < |v|^2 < 1e280, where the squares
+    neither overflow nor underflow; outside it the vector is scaled first), and the unit vectors of norm 1
+    to 3 ulp and along the input."""
+    from irtlang.kernels import optics, sampling
+
+    rng = np.random.default_rng(int(-math.log10(scale) * 10) % 1000 + 5)
+    for v in rng.normal(size=(200, 3)) * scale:
+        x, y, z = (float(c) for c in v)
+        exact = _exact_norm(x, y, z)
+        assert abs(G.norm3(x, y, z) - exact) <= 2 * math.ulp(exact)
+        for ux, uy, uz in (G.normalize3(x, y, z), optics._unit(x, y, z), sampling._unit(x, y, z)):
+            assert abs(_exact_norm(ux, uy, uz) - 1.0) <= 3 * EPS
+            for a, b in ((ux, x), (uy, y), (uz, z)):
+                assert abs(a - b / exact) <= 3 * EPS * (abs(a) + 1e-300)
+    # the zero and non-finite vectors keep each caller's answer
+    assert G.norm3(0.0, 0.0, 0.0) == 0.0 and G.norm3(math.inf, 1.0, 0.0) == math.inf
+    assert G.normalize3(0.0, 0.0, 0.0) == (0.0, 0.0, 1.0) and sampling._unit(0.0, 0.0, 0.0) == (0.0, 0.0, 1.0)
+    assert optics._unit(0.0, 0.0, 0.0) == (0.0, 0.0, 0.0)
