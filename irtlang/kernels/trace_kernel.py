@@ -75,6 +75,8 @@ NEE_STRAIGHT_DN = 1e-3   # rays sent toward a target cross index steps smaller t
 SW = 20             # stack entry: ph(3) pl(3) d(3) w w0 ev excl nee path flags jlast opl sx sy, [q u v e1(3)], history
 SWP = SW + 6 if F_POLAR else SW     # where the history starts: after the Stokes state of a polarized trace
 EPS_SELF = 1e-9
+SIDE_COS = 1e-7     # _nearest: a departure from a nested shell closer than this (cosine) to its tangent plane is
+                    # grazing: its side is not trusted (its other root on that shell is then within ~2 R 1e-7)
 TWO_PI = 2.0 * math.pi
 
 
@@ -153,6 +155,19 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, S, jlast):
     # after a crossing of shell i of a family, only its neighbours i - 1, i, i + 1 can be met next (pack.shell_families)
     nb_lo = si[jlast, SI_FPREV] if fam_last >= 0 else -1
     nb_hi = si[jlast, SI_FNEXT] if fam_last >= 0 else -1
+    nb_at = jlast
+    if F_SHELLS and fam_last >= 0:
+        # and which of them, from the side the ray leaves shell i to: outward (the shell's convex body behind
+        # it) only i + 1; inward only i again or i - 1 (i + 1 lies beyond shell i).  A grazing departure
+        # (|cos| <= SIDE_COS) keeps all three.  One normal instead of one or two intersections (-2: no surface)
+        qx, qy, qz, qdx, qdy, qdz = _local(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, jlast)
+        snx, sny, snz = _surface_normal(si[jlast, SI_KIND], f, si, S, jlast, qx, qy, qz, -1)
+        cs = snx * qdx + sny * qdy + snz * qdz
+        if cs > SIDE_COS:
+            nb_lo = -2
+            nb_at = -2
+        elif cs < -SIDE_COS:
+            nb_hi = -2
     # a while loop that jumps over a skipped run (a for loop stepping through it cost about a tenth of an Earth
     # frame's trace: its ~60 surfaces, most of them skipped on every segment)
     nsurf = si.shape[0]
@@ -181,14 +196,14 @@ def _nearest(phx, phy, phz, plx, ply, plz, dx, dy, dz, f, si, S, jlast):
                 if disc < 0.0 or (best_t < np.inf and -bb - math.sqrt(disc) > best_t):
                     jn = ce
                     continue
-        if F_SHELLS and fam_last >= 0 and si[j, SI_FAM] == fam_last and j != jlast and j != nb_lo and j != nb_hi:
+        if F_SHELLS and fam_last >= 0 and si[j, SI_FAM] == fam_last and j != nb_at and j != nb_lo and j != nb_hi:
             # a nested shell beyond the neighbours of the one just crossed: jump to the next neighbour or to the
             # first surface after this run of the family (the order of the tests, and so any tie, is unchanged)
             nxt = si[j, SI_FOUT]
             if nb_lo > j and nb_lo < nxt:
                 nxt = nb_lo
-            if jlast > j and jlast < nxt:
-                nxt = jlast
+            if nb_at > j and nb_at < nxt:
+                nxt = nb_at
             if nb_hi > j and nb_hi < nxt:
                 nxt = nb_hi
             jn = max(nxt, jn)
