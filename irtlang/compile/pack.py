@@ -327,7 +327,8 @@ def shell_families(pk) -> tuple:
     semi-axes grow strictly from one to the next are *nested shells* (an atmosphere); -1 elsewhere.  A ray that
     has just crossed shell i of a family can next meet only shells i - 1, i and i + 1 of it (a straight ray
     that leaves a convex shell never re-enters it, and cannot reach a farther shell without crossing a nearer
-    one), so the kernel skips the others (feature `shells`)."""
+    one), so the kernel skips the others (feature `shells`); from the side the ray leaves shell i to, it also
+    drops i and i - 1 (outward) or i + 1 (inward)."""
     n = len(pk.s_kind)
     fam = np.full(n, -1, np.int64)
     fidx = np.zeros(n, np.int64)
@@ -357,8 +358,9 @@ def family_links(fam: np.ndarray, fidx: np.ndarray) -> tuple:
     """(prev, next, out) per surface: for a member of a nested-shell family, the surfaces of index fidx - 1 and
     fidx + 1 in its family (-1: none) and the first surface after it that is not in its family (n: none); -1,
     -1, 0 elsewhere.  The kernel's nearest-hit search, after a crossing of shell i, jumps over the members it
-    need not test (all but i - 1, i, i + 1) instead of stepping through them one by one: the Earth's shells
-    cost three tests per event and a handful of jumps."""
+    need not test (all but i - 1, i, i + 1; of these, one or two by the side the ray leaves to) instead of
+    stepping through them one by one: the Earth's shells cost one or two tests per event and a handful of
+    jumps."""
     n = len(fam)
     prev = np.full(n, -1, np.int64)
     nxt = np.full(n, -1, np.int64)
