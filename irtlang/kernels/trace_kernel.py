@@ -1585,7 +1585,14 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
     rcap = rec_w.shape[1]
     H = rec_hist.shape[2]
     src_dw = _collimated_dirs(SRC)
-    for c in numba.prange(nchunks):
+    # Numba's parallel loop gives each thread one contiguous block of its indices (its set_parallel_chunksize
+    # changed nothing here), while neighbouring chunks cost alike and far ones not (an image's upper and lower
+    # rows, a spectrum's short and long lines): the loop index is spread over the chunks by a stride coprime
+    # with their number.  Each chunk keeps its own slots and the reduction adds them in chunk order, so the
+    # results do not depend on which thread traces which chunk.
+    stride = _spread_stride(nchunks)
+    for cc in numba.prange(nchunks):
+        c = (cc * stride) % nchunks
         # the structures the helpers read, rebuilt from the locals above (see the docstring)
         S = Surfaces(s_f, s_i, s_mesh, s_bmin, s_bmax, s_child, s_count, s_tris, s_ids, s_fn)
         SC = Scatter(sp_kind, sp_model, sp_map, sp_cls_off, sp_cls_n, sp_rays, sp_tgt, cls_models, map_data,
@@ -1847,6 +1854,18 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                         dep_idx[c, q] = -dep_idx[c, q] - 1
         dep_n[c] = ndep if ndep <= cap else -1
         rec_n[c] = nrec if nrec <= rcap else -1
+
+
+@numba.njit(cache=True)
+def _spread_stride(n):
+    """The odd stride nearest above 0.618 n that is coprime with n (1 for n <= 2): c = (k stride) mod n is then
+    a permutation of 0 .. n - 1 that scatters every run of consecutive k over the whole range."""
+    if n <= 2:
+        return 1
+    s = int(0.6180339887498949 * n) | 1
+    while math.gcd(s, n) != 1:
+        s += 2
+    return s
 
 
 @numba.njit(cache=True, inline="always")
