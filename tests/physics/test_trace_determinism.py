@@ -113,3 +113,20 @@ def test_thread_count_in_fresh_processes(scene):
         assert out.returncode == 0, out.stderr
         digests.append([x for x in out.stdout.splitlines() if x.startswith("DIGEST")][-1])
     assert digests[0] == digests[1]
+
+
+def test_spread_stride_is_a_permutation_that_mixes_each_threads_share():
+    """The parallel loop's index k traces chunk (k stride) mod n (trace_kernel._spread_stride): that must be a
+    permutation of the chunks (every chunk traced once: the determinism tests above then hold whatever the
+    order), and the first half of the indices (one thread's share under Numba's static schedule on 2 threads)
+    must hold chunks from both halves of the batch (an image's upper and lower rows)."""
+    from irtlang.kernels.trace_kernel import _spread_stride
+
+    for n in range(1, 700):
+        st = _spread_stride(n)
+        order = [(k * st) % n for k in range(n)]
+        assert sorted(order) == list(range(n)), n
+        if n >= 8:
+            first = order[: n // 2]
+            low = sum(c < n // 2 for c in first)
+            assert 0.3 * len(first) <= low <= 0.7 * len(first), (n, st, low)
