@@ -133,6 +133,7 @@ def execute(script: Script, *, presets=(), seed: int | None = None, out: Path | 
     engine.seed = None if seed is None else int(seed)
     it = Interpreter(engine=engine, out=echo, limits=checked.limits, allow_outside=checked.allow_outside)
     status, error = "complete", None
+    ahead = _compile_ahead(script, presets, checked)
     try:
         it.preset(presets)
         if script.path is not None:
@@ -157,12 +158,50 @@ def execute(script: Script, *, presets=(), seed: int | None = None, out: Path | 
         else:
             folder.write_manifest(f"internal error: {type(e).__name__}: {e}")
         raise
+    finally:
+        if ahead is not None:
+            from . import tracer
+
+            tracer.COMPILE_AHEAD[:] = [h for h in tracer.COMPILE_AHEAD if h is not ahead]
+            ahead.stop()
     try:
         _write_results(folder, engine.collector)
     finally:
         shutil.rmtree(spill, ignore_errors=True)
     man = folder.write_manifest(status)
     return Execution(folder, it, status, error, None, man)
+
+
+class _Ahead:
+    """The hook `execute` leaves in irtlang.tracer.COMPILE_AHEAD: at the run's first compile of a kernel Numba's
+    cache lacks, start irtlang.ahead on the script (its later kernels, compiled meanwhile by another process)."""
+
+    def __init__(self, script: Script, presets, allow_outside: bool):
+        self.args, self.proc = (script.path, tuple(presets or ()), allow_outside), None
+
+    def __call__(self) -> None:
+        from .ahead import start
+
+        self.proc = start(*self.args)
+
+    def stop(self) -> None:
+        """At the run's end: a kernel the run did not reach is not compiled on (nor is a plan that missed)."""
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=5)
+            except Exception:
+                pass
+
+
+def _compile_ahead(script: Script, presets, checked):
+    from . import tracer
+
+    if script.path is None:
+        return None
+    hook = _Ahead(script, presets, bool(getattr(checked, "allow_outside", False)))
+    tracer.COMPILE_AHEAD.append(hook)
+    return hook
 
 
 def _write_results(folder, collector):

@@ -14,7 +14,8 @@ import numpy as np
 
 from .compile.pack import Packed, pack
 from .core.stats import standard_error, total_standard_error  # noqa: F401  (re-exported: irtlang.tracer.standard_error)
-from .compile.specialize import kernel_lock, kernel_module
+from .compile.specialize import kernel_cached, kernel_lock, kernel_module
+from .kernels.reduce import reduce_batch
 from .kernels.layout import Detectors, Media, Objects, Records, Scatter, Settings, Sources, Surfaces, Tallies
 
 HISTORY_CAP = 16
@@ -114,6 +115,27 @@ class BatchTally:
     records: dict | None
 
 
+_REDUCE_AHEAD = []
+# callables run once, before this process first compiles a trace kernel that Numba's cache lacks: `irt run`
+# (irtlang.api.execute) puts here the start of irtlang.ahead, which compiles the run's later kernels meanwhile
+COMPILE_AHEAD: list = []
+
+
+def _reduce_ahead() -> None:
+    """Where Numba's cache lacks reduce_batch (a machine's first trace), compile it in a background process
+    (``python -m irtlang.kernels.reduce``) while this one compiles its trace kernel, the other core's share of a
+    first run: 4-6 s (docs/architecture.md, "Compiled ahead").  Once per process; ``IRT_COMPILE_AHEAD=0`` turns
+    it off.  This process never waits for it (it compiles reduce_batch itself if the other has not finished)."""
+    from .core.background import start_python
+    from .kernels import reduce as _reduce
+
+    if _REDUCE_AHEAD:
+        return
+    _REDUCE_AHEAD.append(True)
+    if not _reduce.cached():
+        start_python("irtlang.kernels.reduce")
+
+
 class TraceContext:
     """A packed scene with its specialized kernel, ready to trace any batch of ray ids (built once per worker)."""
 
@@ -174,6 +196,12 @@ class TraceContext:
         no rays has the same argument types as any other, so it makes the compiled code for them."""
         if getattr(self.mod, "_irt_ready", False):
             return
+        _reduce_ahead()
+        if COMPILE_AHEAD and not kernel_cached(self.mod):
+            hooks = list(COMPILE_AHEAD)
+            COMPILE_AHEAD.clear()
+            for h in hooks:
+                h()
         with kernel_lock(self.mod):
             self.run_batch(0, 0, _compiled=True)
         self.mod._irt_ready = True
@@ -243,8 +271,8 @@ class Accumulator:
 
     def add(self, t: BatchTally) -> None:
         c = self.ctx
-        c.mod.reduce_batch(t.led, t.inc_sq, t.dep_idx, t.dep_w, t.dep_d, t.dep_n, self.ledger, self.ledger_sq,
-                           self.img, self.img_sq, c.d_off, c.d_npix, c.i_off, c.d_nb, c.d_fm, c.d_fm_off)
+        reduce_batch(t.led, t.inc_sq, t.dep_idx, t.dep_w, t.dep_d, t.dep_n, self.ledger, self.ledger_sq,
+                     self.img, self.img_sq, c.d_off, c.d_npix, c.i_off, c.d_nb, c.d_fm, c.d_fm_off)
         if t.records is not None:
             self.rec_parts.append(t.records)
         self.done += t.n

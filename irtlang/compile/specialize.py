@@ -144,23 +144,37 @@ def _sources_hash() -> str:
     return h.hexdigest()[:12]
 
 
+def kernel_cached(mod) -> bool:
+    """Whether Numba's cache holds a compiled ``trace_batch`` of the kernel module `mod` (its index, read as
+    Numba reads it: one left by an older source counts as empty).  True where that cannot be told."""
+    try:
+        return bool(mod.trace_batch._cache._cache_file._load_index())
+    except Exception:       # Numba's internals changed: nothing is compiled ahead (irtlang.ahead)
+        return True
+
+
 @contextlib.contextmanager
-def kernel_lock(mod):
+def kernel_lock(mod, wait: bool = True):
     """Held while a process compiles (or loads from the cache) the kernel module `mod`: an exclusive lock on a
     file beside the module's source in the kernel folder.  Two processes that need the same kernel at once
     (a local cluster's workers, the test suite's two workers, two runs started together) would otherwise both
     compile it from an empty cache, minutes each; with the lock the second waits and then loads the first one's
-    cached code.  Where the platform has no fcntl, nothing is locked."""
+    cached code.  Where the platform has no fcntl, nothing is locked.  Yields True when held; with `wait`
+    False a lock another process holds is not waited for, and it yields False (irtlang.ahead)."""
     try:
         import fcntl
     except ImportError:        # not POSIX: no lock (each process compiles, as before)
-        yield
+        yield wait
         return
     path = Path(mod.__file__).with_suffix(".lock")
     with open(path, "a") as f:
-        fcntl.flock(f, fcntl.LOCK_EX)
         try:
-            yield
+            fcntl.flock(f, fcntl.LOCK_EX if wait else fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            yield False
+            return
+        try:
+            yield True
         finally:
             fcntl.flock(f, fcntl.LOCK_UN)
 

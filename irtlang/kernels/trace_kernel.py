@@ -1858,94 +1858,11 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
 
 @numba.njit(cache=True)
 def _spread_stride(n):
-    """The odd stride nearest above 0.618 n that is coprime with n (1 for n <= 2): c = (k stride) mod n is then
-    a permutation of 0 .. n - 1 that scatters every run of consecutive k over the whole range."""
+    """The smallest odd integer not below floor(0.618 n) that is coprime with n (1 for n <= 2): c = (k stride)
+    mod n is then a permutation of 0 .. n - 1 that scatters every run of consecutive k over the whole range."""
     if n <= 2:
         return 1
     s = int(0.6180339887498949 * n) | 1
     while math.gcd(s, n) != 1:
         s += 2
     return s
-
-
-@numba.njit(cache=True, inline="always")
-def _group_add(gt, gv, ng, t, v):
-    """reduce_batch's running sums of one deposit group: v added to image element t's.  Returns (gt, gv, ng)."""
-    for g in range(ng):
-        if gt[g] == t:
-            gv[g] += v
-            return gt, gv, ng
-    if ng == gt.shape[0]:
-        gt2 = np.empty(2 * ng + 8, np.int64)
-        gv2 = np.empty(2 * ng + 8)
-        gt2[:ng] = gt[:ng]
-        gv2[:ng] = gv[:ng]
-        gt = gt2
-        gv = gv2
-    gt[ng] = t
-    gv[ng] = v
-    return gt, gv, ng + 1
-
-
-@numba.njit(cache=True)
-def reduce_batch(led, inc_sq, dep_idx, dep_w, dep_d, dep_n, ledger, ledger_sq, img, img_sq, d_lo, d_npix, i_off, d_nb, d_fm,
-                 d_fm_off):
-    """Add a batch's chunk tallies in chunk order (deterministic for any thread count).  A deposit's index is
-    d_lo[d] + line * npix + pixel; a detector with filters (d_nb[d] = B > 0) adds w T[line, b] to each filter
-    image b (its (L, B) matrix at d_fm[d_fm_off[d]:]), else the deposit goes to the line's own image.  The
-    squares are dep_d's: a source ray's deposit, or a stratified pair's difference (camera DIRECTIONS, a
-    paired SPECTRAL).  A pair whose deposits lie on several lines is one group, its later deposits' indices
-    stored as -(index + 1): the square is then of the group's sum in each image it reaches (in a filter image
-    the pair's difference a T(line_a) - b T(line_b), not a^2 T^2 + b^2 T^2)."""
-    nd = d_lo.shape[0]
-    L = led.shape[3]
-    gt = np.empty(8, np.int64)
-    gv = np.empty(8)
-    ng = 0
-    for c in range(led.shape[0]):
-        ledger += led[c]
-        ledger_sq += inc_sq[c]
-        nq = dep_n[c]
-        for q in range(nq):
-            k = dep_idx[c, q]
-            if k < 0:
-                k = -k - 1
-                grouped = True
-            else:
-                grouped = q + 1 < nq and dep_idx[c, q + 1] < 0
-                ng = 0
-            w = dep_w[c, q]
-            e = dep_d[c, q]
-            d = nd - 1
-            while d > 0 and k < d_lo[d]:
-                d -= 1
-            rel = k - d_lo[d]
-            B = d_nb[d]
-            if B == 0:
-                img[i_off[d] + rel] += w
-                if grouped:
-                    gt, gv, ng = _group_add(gt, gv, ng, i_off[d] + rel, e)
-                else:
-                    img_sq[i_off[d] + rel] += e * e
-            else:
-                # a polarized trace's deposits run over (Stokes component, line): component k's filter
-                # images follow component k - 1's
-                npx = d_npix[d]
-                cl = rel // npx
-                comp = cl // L
-                line = cl - comp * L
-                pix = rel - cl * npx
-                base = d_fm_off[d] + line * B
-                for b in range(B):
-                    fb = d_fm[base + b]
-                    if fb != 0.0:
-                        wb = w * fb
-                        eb = e * fb
-                        img[i_off[d] + (comp * B + b) * npx + pix] += wb
-                        if grouped:
-                            gt, gv, ng = _group_add(gt, gv, ng, i_off[d] + (comp * B + b) * npx + pix, eb)
-                        else:
-                            img_sq[i_off[d] + (comp * B + b) * npx + pix] += eb * eb
-            if grouped and not (q + 1 < nq and dep_idx[c, q + 1] < 0):
-                for g in range(ng):
-                    img_sq[gt[g]] += gv[g] * gv[g]

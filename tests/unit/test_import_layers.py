@@ -33,7 +33,8 @@ LAYERS = [
     ("tracer", ["irtlang.tracer"]),
     ("optics", ["irtlang.optics"]),
     ("engine", ["irtlang.engine"]),
-    ("drivers", ["irtlang.progress", "irtlang.api", "irtlang.cluster", "irtlang.repl", "irtlang.cli"]),
+    ("drivers", ["irtlang.progress", "irtlang.ahead", "irtlang.api", "irtlang.cluster", "irtlang.repl",
+                 "irtlang.cli"]),
     ("analysis", ["analysis"]),
 ]
 

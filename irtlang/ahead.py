@@ -1,0 +1,127 @@
+"""Compiling a run's later trace kernels ahead, in a second process, while the run compiles its first.
+
+Numba compiles one trace kernel per feature combination (irtlang/compile/specialize.py), a minute or more each
+on one core, and a run meets its kernels one after another: the flagship's first run compiled the forward
+trace's kernel, traced, and only then compiled the camera-side traces' (71 s and 79 s on 2 cores, one after
+the other).  When `irt run` starts compiling a kernel that is not in Numba's cache, it starts this module in a
+background process (``irtlang.tracer.TraceContext.compile`` calls the hook ``irtlang.api.execute`` sets): the
+process checks the script again (the same ``--set`` values), plans the kernels its TRACE steps will use, and
+compiles those that are neither cached nor being compiled (each under ``compile.specialize.kernel_lock``, which
+the run then waits on if it gets there first), in the run's order.  The run itself is unchanged: it loads what
+the process has compiled, or waits for it, or compiles it as before.
+
+The plan mirrors ``irtlang.engine``: a forward TRACE packs its scene (after CONSIDER) with the records and
+history the program needs; a TRACE CAMERA packs its camera scene (``model.camera.camera_scene``, the first
+analyzer pass) without them; a GUIDE's pilot runs on its camera trace's kernel.  Steps whose scenes have the same
+structure (objects, sources, camera options) are packed once.  Retraces by PST and SPOTS DIAGRAM are not
+planned.  A plan that misses a kernel costs nothing but the time saved (the run compiles it when it needs it).
+
+``IRT_COMPILE_AHEAD=0`` turns it off (also the reduction's compile ahead, ``irtlang.tracer._reduce_ahead``).
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+
+def _signature(scene, records: bool, history: bool, cam) -> tuple:
+    """What decides a scene's kernel, roughly: its objects and their surfaces, models and media by name, its
+    sources' kinds, polarization, the records and history kept, and the camera's options.  Hourly frames of one
+    scene (another epoch, another Sun position) share it."""
+    objs = tuple((k, tuple(getattr(s, "kind", "") for s in getattr(o, "surfaces", ()) or ()),
+                  repr(getattr(o, "scatter", None))[:200]) for k, o in scene.objects.items())
+    srcs = tuple((getattr(s, "kind", ""), tuple(sorted(getattr(s, "params", {}) or {}))) for s in scene.sources)
+    camk = None if cam is None else tuple(sorted((k, repr(v)[:80]) for k, v in cam.items()))
+    return objs, srcs, bool(getattr(scene, "polarization", False)), records, history, camk
+
+
+def plan(steps):
+    """The scenes the run's TRACE steps will pack, one per structure, in the run's order: (scene, records,
+    history)."""
+    from .engine import needs_from_steps
+    from .model import scene as M
+    from .model.camera import camera_scene
+
+    records, history = needs_from_steps(steps)
+    consider = None
+    seen = set()
+    for st in steps:
+        if st.kind == "CONSIDER":
+            consider = st.params.get("objects")
+            continue
+        if st.kind != "TRACE" or getattr(st, "scene", None) is None:
+            continue
+        sc = st.scene
+        if consider:
+            keep = set(consider)
+            sc = M.replace(sc, objects=M.frozen_params({k: v for k, v in sc.objects.items() if k in keep}))
+        cam = st.params.get("camera")
+        r, h = (records, history) if cam is None else (False, False)
+        sig = _signature(sc, r, h, cam)
+        if sig in seen:
+            continue
+        seen.add(sig)
+        if cam is not None:
+            try:
+                sc, _info = camera_scene(sc, cam, st.span, ())
+            except Exception:       # the run reports it; nothing to plan
+                continue
+        yield sc, r, h, st.params.get("level", 10)
+
+
+def compile_planned(script: Path, presets=(), allow_outside: bool = False, log=None) -> list:
+    """Check `script`, plan its kernels, compile those neither cached nor locked by another process.  Returns
+    the kernel keys it compiled."""
+    from .compile.pack import pack
+    from .compile.specialize import kernel_cached, kernel_lock, kernel_module
+    from .lang.interp import check_file
+    from .limits import current as current_limits
+    from .tracer import TraceContext
+
+    checked = check_file(Path(script), presets, limits=current_limits(), allow_outside=allow_outside)
+    done, tried = [], set()
+    for sc, r, h, level in plan(checked.steps):
+        try:
+            pk = pack(sc, records=r, history=h)
+        except Exception:
+            continue
+        mod = kernel_module(pk.features)
+        key = pk.features.key()
+        if key in tried or kernel_cached(mod):
+            continue
+        tried.add(key)
+        with kernel_lock(mod, wait=False) as held:
+            if not held or kernel_cached(mod):
+                continue        # another process compiles it (the run itself, most often), or has
+            ctx = TraceContext(pk, seed=0, level=int(level), halt=0.0, records=r, history=h)
+            ctx.run_batch(0, 0, _compiled=True)
+            done.append(key)
+            if log:
+                log(f"compiled ahead: {key}")
+    return done
+
+
+def start(script: Path, presets=(), allow_outside: bool = False):
+    """Start ``compile_planned`` in a background process (returns the Popen, or None where none started)."""
+    from .core.background import start_python
+
+    args = [str(script)] + (["--allow-outside"] if allow_outside else [])
+    return start_python("irtlang.ahead", args + [a for p in presets for a in ("--set", p)])
+
+
+def main(argv=None) -> int:
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="irtlang.ahead")
+    ap.add_argument("script")
+    ap.add_argument("--set", action="append", default=[])
+    ap.add_argument("--allow-outside", action="store_true")
+    ap.add_argument("--verbose", action="store_true")
+    a = ap.parse_args(sys.argv[1:] if argv is None else argv)
+    try:
+        compile_planned(Path(a.script), a.set, a.allow_outside, log=print if a.verbose else None)
+    except Exception as e:      # a background helper: the run reports the script's problems, not this
+        if a.verbose:
+            print(f"irtlang.ahead: {type(e).__name__}: {e}", file=sys.stderr)
+        return 1
+    return 0
