@@ -37,7 +37,7 @@ def _signature(scene, records: bool, history: bool, cam) -> tuple:
 
 def plan(steps):
     """The scenes the run's TRACE steps will pack, one per structure, in the run's order: (scene, records,
-    history)."""
+    history, level)."""
     from .engine import needs_from_steps
     from .model import scene as M
     from .model.camera import camera_scene
@@ -69,44 +69,87 @@ def plan(steps):
         yield sc, r, h, st.params.get("level", 10)
 
 
-def compile_planned(script: Path, presets=(), allow_outside: bool = False, log=None) -> list:
-    """Check `script`, plan its kernels, compile those neither cached nor locked by another process.  Returns
-    the kernel keys it compiled."""
+def planned_kernels(steps) -> list:
+    """The run's distinct kernels, packed, in the run's order: (packed scene, records, history, level, kernel
+    module)."""
     from .compile.pack import pack
-    from .compile.specialize import kernel_cached, kernel_lock, kernel_module
-    from .lang.interp import check_file
-    from .limits import current as current_limits
-    from .tracer import TraceContext
+    from .compile.specialize import kernel_module
 
-    checked = check_file(Path(script), presets, limits=current_limits(), allow_outside=allow_outside)
-    done, tried = [], set()
-    for sc, r, h, level in plan(checked.steps):
+    out, keys = [], set()
+    for sc, r, h, level in plan(steps):
         try:
             pk = pack(sc, records=r, history=h)
-        except Exception:
+        except Exception:       # the run reports it
             continue
-        mod = kernel_module(pk.features)
-        key = pk.features.key()
-        if key in tried or kernel_cached(mod):
+        if pk.features.key() not in keys:
+            keys.add(pk.features.key())
+            out.append((pk, r, h, level, kernel_module(pk.features)))
+    return out
+
+
+def compile_kernels(kernels, log=None) -> list:
+    """Compile each of `kernels` (planned_kernels' list) that is neither cached nor locked by another process
+    (each under its kernel_lock, taken without waiting).  Returns the keys compiled here."""
+    from .compile.specialize import kernel_cached, kernel_lock
+    from .tracer import TraceContext
+
+    done = []
+    for pk, r, h, level, mod in kernels:
+        if kernel_cached(mod):
             continue
-        tried.add(key)
         with kernel_lock(mod, wait=False) as held:
             if not held or kernel_cached(mod):
                 continue        # another process compiles it (the run itself, most often), or has
             ctx = TraceContext(pk, seed=0, level=int(level), halt=0.0, records=r, history=h)
             ctx.run_batch(0, 0, _compiled=True)
-            done.append(key)
+            done.append(pk.features.key())
             if log:
-                log(f"compiled ahead: {key}")
+                log(f"compiled ahead: {pk.features.key()}")
     return done
 
 
-def start(script: Path, presets=(), allow_outside: bool = False):
-    """Start ``compile_planned`` in a background process (returns the Popen, or None where none started)."""
+def compile_planned(script: Path, presets=(), allow_outside: bool = False, log=None) -> list:
+    """Check `script`, plan its kernels, compile those neither cached nor locked by another process.  Returns
+    the kernel keys it compiled."""
+    from .lang.interp import check_file
+    from .limits import current as current_limits
+
+    checked = check_file(Path(script), presets, limits=current_limits(), allow_outside=allow_outside)
+    return compile_kernels(planned_kernels(checked.steps), log)
+
+
+def warmup(checked, script: Path, presets=(), allow_outside: bool = False, jobs: int = 1) -> dict:
+    """``irt warmup``: compile every kernel a checked script's run will use, in this process and in `jobs` - 1
+    helper processes (each takes the next kernel nobody holds), and wait for all of them.  Returns the plan's
+    keys, those cached before, and those cached now."""
+    from .compile.specialize import kernel_cached, kernel_lock
+    from .kernels import reduce as _reduce
+
+    kernels = planned_kernels(checked.steps)
+    before = [pk.features.key() for pk, *_r, mod in kernels if kernel_cached(mod)]
+    missing = len(kernels) - len(before)
+    helpers = [start(script, presets, allow_outside, force=True) for _ in range(min(jobs, missing) - 1)]
+    compile_kernels(kernels)
+    if kernels and not _reduce.cached():
+        _reduce.warm()          # and the batches' reduction, which every trace runs after its kernel
+    for p in helpers:
+        if p is not None:
+            p.wait()
+    for *_x, mod in kernels:    # a helper of another run may still hold one: wait for it
+        if not kernel_cached(mod):
+            with kernel_lock(mod):
+                pass
+    return {"planned": [pk.features.key() for pk, *_ in kernels], "cached_before": before,
+            "cached": [pk.features.key() for pk, *_r, mod in kernels if kernel_cached(mod)]}
+
+
+def start(script: Path, presets=(), allow_outside: bool = False, force: bool = False):
+    """Start ``compile_planned`` in a background process (returns the Popen, or None where none started;
+    `force`: even where IRT_COMPILE_AHEAD=0, as `irt warmup` asks)."""
     from .core.background import start_python
 
     args = [str(script)] + (["--allow-outside"] if allow_outside else [])
-    return start_python("irtlang.ahead", args + [a for p in presets for a in ("--set", p)])
+    return start_python("irtlang.ahead", args + [a for p in presets for a in ("--set", p)], force=force)
 
 
 def main(argv=None) -> int:

@@ -1,4 +1,4 @@
-"""The ``irt`` command: run, check, fmt, repl, analyze.
+"""The ``irt`` command: run, check, warmup, fmt, repl, analyze.
 
 Exit codes: 0 success; 2 the input has errors (diagnostics printed) or bad usage; 3 the script needs a
 capability this build does not have; 1 a run-time failure; 70 an internal error (a bug: please report);
@@ -65,6 +65,15 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     _safety_options(c)
     c.add_argument("--debug", action="store_true", default=argparse.SUPPRESS)
 
+    w = sub.add_parser("warmup", help="compile the kernels a script's run will use, without running it")
+    w.add_argument("file")
+    w.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                   help="set a variable before the script runs (as irt run --set)")
+    w.add_argument("--jobs", type=int, default=os.cpu_count() or 1, metavar="N",
+                   help="compile in N processes at once (default: the number of cores)")
+    _safety_options(w)
+    w.add_argument("--debug", action="store_true", default=argparse.SUPPRESS)
+
     f = sub.add_parser("fmt", help="print a script in canonical formatting")
     f.add_argument("file")
     f.add_argument("--debug", action="store_true", default=argparse.SUPPRESS)
@@ -124,6 +133,8 @@ def main(argv: list[str] | None = None) -> int:
             return cmd_check(args)
         if args.cmd == "fmt":
             return cmd_fmt(args)
+        if args.cmd == "warmup":
+            return cmd_warmup(args)
         if args.cmd == "examples":
             return cmd_examples(args)
         if args.cmd == "repl":
@@ -189,6 +200,35 @@ def cmd_check(args) -> int:
             _print_diags(e)
             status = EXIT_INPUT
     return status
+
+
+def cmd_warmup(args) -> int:
+    """irt warmup FILE: compile (into Numba's cache) every trace kernel a run of FILE will use, in --jobs
+    processes at once (irtlang/ahead.py), so that the run itself starts warm: before a cluster run, on a new
+    machine or in a container image.  Retraces by PST and SPOTS DIAGRAM are not planned."""
+    import time
+
+    from .ahead import warmup
+    from .core.diagnostics import IrtError
+
+    if args.jobs < 1:
+        print("irt: --jobs needs at least 1", file=sys.stderr)
+        return EXIT_INPUT
+    presets = getattr(args, "set", None) or ()
+    try:
+        checked = _load_check(args.file, presets, args)
+    except IrtError as e:
+        _print_diags(e)
+        return EXIT_INPUT
+    t0 = time.perf_counter()
+    r = warmup(checked, Path(args.file), presets, bool(args.allow_outside), jobs=args.jobs)
+    n, before, now = len(r["planned"]), len(r["cached_before"]), len(r["cached"])
+    print(f"irt warmup: {n} trace kernel{'s' if n != 1 else ''} for {args.file}: {before} already compiled, "
+          f"{now - before} compiled now ({min(args.jobs, max(n - before, 1))} at once), "
+          f"{time.perf_counter() - t0:.1f} s")
+    for k in r["planned"]:
+        print(f"  {k}: {'cached' if k in r['cached'] else 'NOT compiled'}")
+    return EXIT_OK if now == n else EXIT_RUNTIME
 
 
 def cmd_run(args) -> int:

@@ -194,3 +194,40 @@ def test_compile_ahead_can_be_switched_off(monkeypatch, flag, tmp_path):
 
     monkeypatch.setenv("IRT_COMPILE_AHEAD", flag)
     assert ahead.start(tmp_path / "x.inr") is None
+
+
+def test_irt_warmup_compiles_what_is_missing_and_reports_each_kernel(tmp_path, monkeypatch, capsys):
+    """`irt warmup` in one process (--jobs 1), the compile replaced by a recorder that marks the kernel cached:
+    every planned kernel compiled once, the report lists each as cached, exit 0; bad input exits 2."""
+    from irtlang import cli, tracer
+    from irtlang.compile import specialize
+
+    monkeypatch.setenv("IRT_KERNEL_FEATURES", "")
+    monkeypatch.setattr(specialize, "_loaded", {})
+    cached = set()
+    compiled = []
+
+    def fake_run_batch(self, first, n, reuse=False, _compiled=False):
+        compiled.append(self.pk.features.key())
+        cached.add(self.mod.__name__)
+
+    monkeypatch.setattr(tracer.TraceContext, "run_batch", fake_run_batch)
+    monkeypatch.setattr(specialize, "kernel_cached", lambda mod: mod.__name__ in cached)
+    path = tmp_path / "three.inr"
+    path.write_text(SCRIPT)
+    assert cli.main(["warmup", str(path), "--jobs", "1"]) == 0
+    out = capsys.readouterr().out
+    keys = list(dict.fromkeys(_plan_keys(path)))
+    assert compiled == keys
+    assert f"{len(keys)} trace kernels for {path}: 0 already compiled, {len(keys)} compiled now" in out
+    assert all(f"  {k}: cached" in out for k in keys)
+    # again: nothing to compile
+    compiled.clear()
+    assert cli.main(["warmup", str(path), "--jobs", "1"]) == 0
+    assert compiled == [] and f"{len(keys)} already compiled, 0 compiled now" in capsys.readouterr().out
+    # a script with an error: its diagnostics, exit 2, nothing compiled
+    bad = tmp_path / "bad.inr"
+    bad.write_text("TRACE\n")
+    assert cli.main(["warmup", str(bad)]) == 2
+    assert "bad.inr:1:1: error" in capsys.readouterr().err and compiled == []
+    assert cli.main(["warmup", str(path), "--jobs", "0"]) == 2
