@@ -188,6 +188,18 @@ def _load_check(path: str, presets=(), args=None):
                       allow_outside=bool(getattr(args, "allow_outside", False)))
 
 
+def _checked(args):
+    """(the --set values, the checking interpreter of args.file), or (..., None) after printing its diagnostics."""
+    from .core.diagnostics import IrtError
+
+    presets = getattr(args, "set", None) or ()
+    try:
+        return presets, _load_check(args.file, presets, args)
+    except IrtError as e:
+        _print_diags(e)
+        return presets, None
+
+
 def cmd_check(args) -> int:
     from .core.diagnostics import IrtError
 
@@ -209,16 +221,12 @@ def cmd_warmup(args) -> int:
     import time
 
     from .ahead import warmup
-    from .core.diagnostics import IrtError
 
     if args.jobs < 1:
         print("irt: --jobs needs at least 1", file=sys.stderr)
         return EXIT_INPUT
-    presets = getattr(args, "set", None) or ()
-    try:
-        checked = _load_check(args.file, presets, args)
-    except IrtError as e:
-        _print_diags(e)
+    presets, checked = _checked(args)
+    if checked is None:
         return EXIT_INPUT
     t0 = time.perf_counter()
     r = warmup(checked, Path(args.file), presets, bool(args.allow_outside), jobs=args.jobs)
@@ -267,11 +275,8 @@ def _run_script(args, runner=None) -> int:
     from .progress import RunProgress
 
     script = Script(Path(args.file))
-    presets = getattr(args, "set", None) or ()
-    try:
-        checked = _load_check(args.file, presets, args)
-    except IrtError as e:
-        _print_diags(e)
+    presets, checked = _checked(args)
+    if checked is None:
         return EXIT_INPUT
     enabled = False if getattr(args, "quiet", False) else True if getattr(args, "progress", False) else None
     try:
