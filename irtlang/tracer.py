@@ -115,7 +115,7 @@ class BatchTally:
     records: dict | None
 
 
-_REDUCE_AHEAD = []
+_REDUCE_AHEAD = []         # not empty once this process has looked (_reduce_ahead)
 # callables run once, before this process first compiles a trace kernel that Numba's cache lacks: `irt run`
 # (irtlang.api.execute) puts here the start of irtlang.ahead, which compiles the run's later kernels meanwhile
 COMPILE_AHEAD: list = []

@@ -94,7 +94,7 @@ def reduce_batch(led, inc_sq, dep_idx, dep_w, dep_d, dep_n, ledger, ledger_sq, i
 def warm() -> None:
     """Compile reduce_batch (or load it from Numba's cache) for the argument types the tracer passes
     (``irtlang.tracer.Accumulator.add``: C-contiguous float64 and int64 arrays of these ranks), on a batch of no
-    deposits.  tests/unit/test_reduce_warm.py checks that it makes the tracer's one signature."""
+    deposits.  tests/unit/test_compile_ahead.py checks that it makes the tracer's one signature."""
     i = np.int64
     reduce_batch(np.zeros((1, 1, 5, 1)), np.zeros((1, 1, 1)), np.zeros((1, 1), i), np.zeros((1, 1)),
                  np.zeros((1, 1)), np.zeros(1, i), np.zeros((1, 5, 1)), np.zeros((1, 1)), np.zeros(1), np.zeros(1),
