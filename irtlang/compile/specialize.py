@@ -134,12 +134,18 @@ def _kernel_dir() -> Path:
     return d
 
 
-def _sources_hash() -> str:
-    """Hash of every source a generated kernel depends on (kernels, scatter-model, surface and source plugins)."""
+def kernel_sources() -> list:
+    """Every source a generated kernel depends on: kernels/ and the scatter-model, surface and source plugins;
+    not kernels/reduce.py, which the trace kernel does not use (editing it recompiles only itself)."""
     root = Path(__file__).resolve().parents[1]
+    kernels = [p for p in sorted((root / "kernels").glob("*.py")) if p.name != "reduce.py"]
+    return kernels + [p for sub in ("bsdfs", "surfaces", "sources") for p in sorted((root / "plugins" / sub).glob("*.py"))]
+
+
+def _sources_hash() -> str:
+    """Hash of kernel_sources(): a generated kernel's file name carries it, so an edit recompiles the kernels."""
     h = hashlib.sha256()
-    for p in (sorted((root / "kernels").glob("*.py")) + sorted((root / "plugins" / "bsdfs").glob("*.py"))
-              + sorted((root / "plugins" / "surfaces").glob("*.py")) + sorted((root / "plugins" / "sources").glob("*.py"))):
+    for p in kernel_sources():
         h.update(p.read_bytes())
     return h.hexdigest()[:12]
 

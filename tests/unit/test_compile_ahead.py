@@ -231,3 +231,23 @@ def test_irt_warmup_compiles_what_is_missing_and_reports_each_kernel(tmp_path, m
     assert cli.main(["warmup", str(bad)]) == 2
     assert "bad.inr:1:1: error" in capsys.readouterr().err and compiled == []
     assert cli.main(["warmup", str(path), "--jobs", "0"]) == 2
+
+
+def test_the_kernels_source_hash_leaves_out_the_reduction():
+    """A generated kernel's name hashes the sources it depends on; reduce.py is not one of them (an edit there
+    need not recompile every trace kernel), the template and its imports are."""
+    from irtlang.compile.specialize import kernel_sources
+
+    names = {(p.parent.name, p.name) for p in kernel_sources()}
+    assert ("kernels", "reduce.py") not in names
+    for must in [("kernels", "trace_kernel.py"), ("kernels", "geometry.py"), ("kernels", "rng.py"),
+                 ("kernels", "layout.py"), ("bsdfs", "lambertian.py"), ("surfaces", "__init__.py"),
+                 ("sources", "__init__.py")]:
+        assert must in names, must
+    # what trace_kernel imports from kernels/ is all in the hash
+    import ast
+
+    src = next(p for p in kernel_sources() if p.name == "trace_kernel.py").read_text()
+    for node in ast.walk(ast.parse(src)):
+        if isinstance(node, ast.ImportFrom) and node.level == 1 and node.module:
+            assert ("kernels", node.module + ".py") in names, node.module
