@@ -118,16 +118,19 @@ def compile_planned(script: Path, presets=(), allow_outside: bool = False, log=N
     return compile_kernels(planned_kernels(checked.steps), log)
 
 
-def warmup(checked, script: Path, presets=(), allow_outside: bool = False, jobs: int = 1) -> dict:
+def warmup(checked, script: Path, presets=(), allow_outside: bool = False, jobs: int = 1, on_plan=None) -> dict:
     """``irt warmup``: compile every kernel a checked script's run will use, in this process and in `jobs` - 1
-    helper processes (each takes the next kernel nobody holds), and wait for all of them.  Returns the plan's
-    keys, those cached before, and those cached now."""
+    helper processes (each takes the next kernel nobody holds), and wait for all of them.  `on_plan(planned,
+    missing, at_once)` is called before the compiles start.  Returns the plan's keys, those cached before, and
+    those cached now."""
     from .compile.specialize import kernel_cached, kernel_lock
     from .kernels import reduce as _reduce
 
     kernels = planned_kernels(checked.steps)
     before = [pk.features.key() for pk, *_r, mod in kernels if kernel_cached(mod)]
     missing = len(kernels) - len(before)
+    if on_plan is not None:
+        on_plan(len(kernels), missing, max(1, min(jobs, missing)))
     helpers = [start(script, presets, allow_outside, force=True) for _ in range(min(jobs, missing) - 1)]
     compile_kernels(kernels)
     if kernels and not _reduce.cached():

@@ -219,12 +219,14 @@ def test_irt_warmup_compiles_what_is_missing_and_reports_each_kernel(tmp_path, m
     out = capsys.readouterr().out
     keys = list(dict.fromkeys(_plan_keys(path)))
     assert compiled == keys
+    assert f"compiling {len(keys)} of {len(keys)} trace kernels for {path}, 1 at once" in out.splitlines()[0]
     assert f"{len(keys)} trace kernels for {path}: 0 already compiled, {len(keys)} compiled now" in out
     assert all(f"  {k}: cached" in out for k in keys)
     # again: nothing to compile
     compiled.clear()
     assert cli.main(["warmup", str(path), "--jobs", "1"]) == 0
-    assert compiled == [] and f"{len(keys)} already compiled, 0 compiled now" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert compiled == [] and f"{len(keys)} already compiled, 0 compiled now" in out and "compiling" not in out
     # a script with an error: its diagnostics, exit 2, nothing compiled
     bad = tmp_path / "bad.inr"
     bad.write_text("TRACE\n")
