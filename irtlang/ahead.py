@@ -108,17 +108,18 @@ def compile_kernels(kernels, log=None) -> list:
     return done
 
 
-def compile_planned(script: Path, presets=(), allow_outside: bool = False, log=None) -> list:
-    """Check `script`, plan its kernels, compile those neither cached nor locked by another process.  Returns
-    the kernel keys it compiled."""
+def compile_planned(script: Path, presets=(), allow_outside: bool = False, log=None, limits=()) -> list:
+    """Check `script` (`limits`: --limit's NAME=VALUE strings, over IRT_LIMITS), plan its kernels, compile those
+    neither cached nor locked by another process.  Returns the kernel keys it compiled."""
     from .lang.interp import check_file
-    from .limits import current as current_limits
+    from .limits import Limits
 
-    checked = check_file(Path(script), presets, limits=current_limits(), allow_outside=allow_outside)
+    checked = check_file(Path(script), presets, limits=Limits.from_env(limits), allow_outside=allow_outside)
     return compile_kernels(planned_kernels(checked.steps), log)
 
 
-def warmup(checked, script: Path, presets=(), allow_outside: bool = False, jobs: int = 1, on_plan=None) -> dict:
+def warmup(checked, script: Path, presets=(), allow_outside: bool = False, jobs: int = 1, on_plan=None,
+           limits=()) -> dict:
     """``irt warmup``: compile every kernel a checked script's run will use, in this process and in `jobs` - 1
     helper processes (each takes the next kernel nobody holds), and wait for all of them.  `on_plan(planned,
     missing, at_once)` is called before the compiles start.  Returns the plan's keys, those cached before, and
@@ -131,7 +132,7 @@ def warmup(checked, script: Path, presets=(), allow_outside: bool = False, jobs:
     missing = len(kernels) - len(before)
     if on_plan is not None:
         on_plan(len(kernels), missing, max(1, min(jobs, missing)))
-    helpers = [start(script, presets, allow_outside, force=True) for _ in range(min(jobs, missing) - 1)]
+    helpers = [start(script, presets, allow_outside, force=True, limits=limits) for _ in range(min(jobs, missing) - 1)]
     compile_kernels(kernels)
     if kernels and not _reduce.cached():
         _reduce.warm()          # and the batches' reduction, which every trace runs after its kernel
@@ -146,13 +147,14 @@ def warmup(checked, script: Path, presets=(), allow_outside: bool = False, jobs:
             "cached": [pk.features.key() for pk, *_r, mod in kernels if kernel_cached(mod)]}
 
 
-def start(script: Path, presets=(), allow_outside: bool = False, force: bool = False):
+def start(script: Path, presets=(), allow_outside: bool = False, force: bool = False, limits=()):
     """Start ``compile_planned`` in a background process (returns the Popen, or None where none started;
-    `force`: even where IRT_COMPILE_AHEAD=0, as `irt warmup` asks)."""
+    `force`: even where IRT_COMPILE_AHEAD=0, as `irt warmup` asks; `limits`: --limit's strings)."""
     from .core.background import start_python
 
     args = [str(script)] + (["--allow-outside"] if allow_outside else [])
-    return start_python("irtlang.ahead", args + [a for p in presets for a in ("--set", p)], force=force)
+    args += [a for p in presets for a in ("--set", p)] + [a for x in limits for a in ("--limit", x)]
+    return start_python("irtlang.ahead", args, force=force)
 
 
 def main(argv=None) -> int:
@@ -162,10 +164,11 @@ def main(argv=None) -> int:
     ap.add_argument("script")
     ap.add_argument("--set", action="append", default=[])
     ap.add_argument("--allow-outside", action="store_true")
+    ap.add_argument("--limit", action="append", default=[])
     ap.add_argument("--verbose", action="store_true")
     a = ap.parse_args(sys.argv[1:] if argv is None else argv)
     try:
-        compile_planned(Path(a.script), a.set, a.allow_outside, log=print if a.verbose else None)
+        compile_planned(Path(a.script), a.set, a.allow_outside, log=print if a.verbose else None, limits=a.limit)
     except Exception as e:      # a background helper: the run reports the script's problems, not this
         if a.verbose:
             print(f"irtlang.ahead: {type(e).__name__}: {e}", file=sys.stderr)

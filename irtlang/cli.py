@@ -235,7 +235,8 @@ def cmd_warmup(args) -> int:
             print(f"irt warmup: compiling {missing} of {n} trace kernels for {args.file}, {at_once} at once "
                   "(a minute or more each)...", flush=True)
 
-    r = warmup(checked, Path(args.file), presets, bool(args.allow_outside), jobs=args.jobs, on_plan=on_plan)
+    r = warmup(checked, Path(args.file), presets, bool(args.allow_outside), jobs=args.jobs, on_plan=on_plan,
+               limits=getattr(args, "limit", None) or ())
     n, before, now = len(r["planned"]), len(r["cached_before"]), len(r["cached"])
     print(f"irt warmup: {n} trace kernel{'s' if n != 1 else ''} for {args.file}: {before} already compiled, "
           f"{now - before} compiled now ({min(args.jobs, max(n - before, 1))} at once), "

@@ -253,3 +253,20 @@ def test_the_kernels_source_hash_leaves_out_the_reduction():
     for node in ast.walk(ast.parse(src)):
         if isinstance(node, ast.ImportFrom) and node.level == 1 and node.module:
             assert ("kernels", node.module + ".py") in names, node.module
+
+
+def test_the_helper_checks_with_the_runs_limits(tmp_path, monkeypatch):
+    """`irt warmup --limit` reaches its helper processes: their check uses the same limits (a limit the script
+    exceeds stops the helper's check, as it stops the run's)."""
+    from irtlang import ahead
+    from irtlang.core import background
+    from irtlang.core.diagnostics import IrtError
+
+    seen = []
+    monkeypatch.setattr(background, "start_python", lambda module, args=(), force=False: seen.append(list(args)))
+    path = tmp_path / "three.inr"
+    path.write_text(SCRIPT)
+    ahead.start(path, ["sun_rays=10"], False, force=True, limits=["rays=1e12", "memory=2G"])
+    assert seen == [[str(path), "--set", "sun_rays=10", "--limit", "rays=1e12", "--limit", "memory=2G"]]
+    with pytest.raises(IrtError, match="rays"):
+        ahead.compile_planned(path, limits=["rays=100"])
