@@ -176,13 +176,13 @@ class _Ahead:
     """The hook `execute` leaves in irtlang.tracer.COMPILE_AHEAD: at the run's first compile of a kernel Numba's
     cache lacks, start irtlang.ahead on the script (its later kernels, compiled meanwhile by another process)."""
 
-    def __init__(self, script: Script, presets, allow_outside: bool):
-        self.args, self.proc = (script.path, tuple(presets or ()), allow_outside), None
+    def __init__(self, script: Script, presets, allow_outside: bool, limits=()):
+        self.args, self.limits, self.proc = (script.path, tuple(presets or ()), allow_outside), tuple(limits), None
 
     def __call__(self) -> None:
         from .ahead import start
 
-        self.proc = start(*self.args)
+        self.proc = start(*self.args, limits=self.limits)
 
     def stop(self) -> None:
         """At the run's end: a kernel the run did not reach is not compiled on (nor is a plan that missed)."""
@@ -199,7 +199,9 @@ def _compile_ahead(script: Script, presets, checked):
 
     if script.path is None:
         return None
-    hook = _Ahead(script, presets, bool(getattr(checked, "allow_outside", False)))
+    lim = getattr(getattr(checked, "limits", None), "values", {}) or {}
+    hook = _Ahead(script, presets, bool(getattr(checked, "allow_outside", False)),
+                  [f"{k}={v!r}" for k, v in lim.items()])     # the run's limits, as --limit strings
     tracer.COMPILE_AHEAD.append(hook)
     return hook
 

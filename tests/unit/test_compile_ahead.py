@@ -134,15 +134,18 @@ def test_a_run_starts_the_helper_at_its_first_cold_compile_and_stops_it_at_its_e
             return 0
 
     calls = []
-    monkeypatch.setattr(ahead, "start", lambda *a: calls.append(a) or Proc())
+    monkeypatch.setattr(ahead, "start", lambda *a, **kw: calls.append(a + (kw,)) or Proc())
     monkeypatch.setattr(tracer, "kernel_cached", lambda mod: False)
     monkeypatch.setattr(tracer.TraceContext, "compile", _compile_without_ready_flag)
     path = tmp_path / "three.inr"
     path.write_text(SCRIPT)
+    monkeypatch.setenv("IRT_LIMITS", "rays=2e12")
     res = irtlang.run(path, out=tmp_path / "out", set={"sun_rays": 500})
     assert res.status == "complete"
     assert len(calls) == 1                      # once per run, however many kernels it compiles
     assert calls[0][0] == path and "sun_rays=500" in calls[0][1]
+    from irtlang.limits import Limits          # and the run's limits, which the helper's check parses back
+    assert Limits.from_env(calls[0][-1]["limits"], environ={}).values["rays"] == 2e12
     assert Proc.stopped                         # a helper still running at the end is stopped
     assert tracer.COMPILE_AHEAD == []           # and the hook is gone
 
