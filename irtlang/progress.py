@@ -59,6 +59,16 @@ class RunProgress:
         self._t0 = time.perf_counter()
         return self
 
+    def note(self, text: str) -> None:
+        """A line above the bar (or before the plain lines) where progress is shown; nothing otherwise."""
+        if not self.enabled:
+            return
+        if self._bar is not None:
+            self._bar.console.print(text, highlight=False, markup=False)
+        else:
+            self.stream.write(text + "\n")
+            self.stream.flush()
+
     def update(self, done: int, force: bool = False) -> None:
         if getattr(self, "_plain", False):
             now = time.perf_counter()

@@ -115,6 +115,8 @@ class BatchTally:
     records: dict | None
 
 
+COMPILING = ("irt: compiling the tracer for this kind of scene (once per machine, a minute or more; "
+             "`irt warmup FILE` does it ahead)")
 _REDUCE_AHEAD = []         # not empty once this process has looked (_reduce_ahead)
 # callables run once, before this process first compiles a trace kernel that Numba's cache lacks: `irt run`
 # (irtlang.api.execute) puts here the start of irtlang.ahead, which compiles the run's later kernels meanwhile
@@ -337,6 +339,8 @@ def run_trace(scene, *, seed: int, level: int, halt: float, until_error: float |
     acc = Accumulator(ctx)
     target = list(scene.objects).index(until_target) if until_target else None
     prog = progress.start(ctx.total) if hasattr(progress, "start") else progress or Progress(ctx.total)
+    if hasattr(prog, "note") and not getattr(ctx.mod, "_irt_ready", False) and not kernel_cached(ctx.mod):
+        prog.note(COMPILING)
     passes = 0
     interrupted = False
     run = runner or (lambda c, units: (c.run_batch(f, n, reuse=True) for f, n in units))

@@ -273,3 +273,30 @@ def test_the_helper_checks_with_the_runs_limits(tmp_path, monkeypatch):
     assert seen == [[str(path), "--set", "sun_rays=10", "--limit", "rays=1e12", "--limit", "memory=2G"]]
     with pytest.raises(IrtError, match="rays"):
         ahead.compile_planned(path, limits=["rays=100"])
+
+
+def test_a_run_that_compiles_says_so_where_progress_is_shown(tmp_path, monkeypatch):
+    """The progress display (irt run on a terminal, or --progress) says that the tracer is compiling before a
+    trace whose kernel the cache lacks, and says nothing once it is compiled."""
+    import io
+
+    from irtlang import tracer
+    from irtlang.api import Script, execute
+    from irtlang.compile import specialize
+    from irtlang.progress import RunProgress
+
+    def run(out):
+        stream = io.StringIO()
+        execute(Script(CASS), presets=["camera_rays=1"], out=tmp_path / out,
+                progress=RunProgress(enabled=True, stream=stream), echo=lambda s: None)
+        return stream.getvalue()
+
+    run("warm")                                         # compiled (or loaded) once in this process
+    assert tracer.COMPILING not in run("again")
+    monkeypatch.setattr(tracer, "kernel_cached", lambda mod: False)
+    for m in list(specialize._loaded.values()):
+        monkeypatch.setattr(m, "_irt_ready", False, raising=False)
+    from irtlang import ahead
+
+    monkeypatch.setattr(ahead, "start", lambda *a, **kw: None)     # (no helper process from this test)
+    assert tracer.COMPILING in run("cold")
