@@ -16,7 +16,9 @@ analyzer pass) without them; a GUIDE's pilot runs on its camera trace's kernel. 
 structure (objects, sources, camera options) are packed once.  Retraces by PST and SPOTS DIAGRAM are not
 planned.  A plan that misses a kernel costs nothing but the time saved (the run compiles it when it needs it).
 
-``IRT_COMPILE_AHEAD=0`` turns it off (also the reduction's compile ahead, ``irtlang.tracer._reduce_ahead``).
+``irt warmup FILE`` (``warmup``) runs the same plan in the foreground, in as many processes as asked, and waits
+for all of it.  ``IRT_COMPILE_AHEAD=0`` turns the run's helper off (also the reduction's compile ahead,
+``irtlang.tracer._reduce_ahead``).
 """
 from __future__ import annotations
 
@@ -25,9 +27,9 @@ from pathlib import Path
 
 
 def _signature(scene, records: bool, history: bool, cam) -> tuple:
-    """What decides a scene's kernel, roughly: its objects and their surfaces, models and media by name, its
-    sources' kinds, polarization, the records and history kept, and the camera's options.  Hourly frames of one
-    scene (another epoch, another Sun position) share it."""
+    """What decides a scene's kernel, roughly: its objects (their surfaces' kinds and scatter specs), its
+    sources' kinds and parameter names, polarization, the records and history kept, and the camera's options.
+    Hourly frames of one scene (another epoch, another Sun position) share it."""
     objs = tuple((k, tuple(getattr(s, "kind", "") for s in getattr(o, "surfaces", ()) or ()),
                   repr(getattr(o, "scatter", None))[:200]) for k, o in scene.objects.items())
     srcs = tuple((getattr(s, "kind", ""), tuple(sorted(getattr(s, "params", {}) or {}))) for s in scene.sources)
