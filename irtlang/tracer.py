@@ -338,9 +338,12 @@ def run_trace(scene, *, seed: int, level: int, halt: float, until_error: float |
     batch = max(chunk, (batch + chunk - 1) // chunk * chunk)
     acc = Accumulator(ctx)
     target = list(scene.objects).index(until_target) if until_target else None
+    if not getattr(ctx.mod, "_irt_ready", False):
+        if hasattr(progress, "note") and not kernel_cached(ctx.mod):
+            progress.note(COMPILING)
+        if runner is None:
+            ctx.compile()       # before the progress starts its clock: the rate it shows is the trace's
     prog = progress.start(ctx.total) if hasattr(progress, "start") else progress or Progress(ctx.total)
-    if hasattr(prog, "note") and not getattr(ctx.mod, "_irt_ready", False) and not kernel_cached(ctx.mod):
-        prog.note(COMPILING)
     passes = 0
     interrupted = False
     run = runner or (lambda c, units: (c.run_batch(f, n, reuse=True) for f, n in units))
