@@ -322,6 +322,8 @@ class Engine:
                if info["spectral"] else f"{info['rays_per_pixel_line']} per pixel and line, {info['lines']} lines")
         if cam.get("stokes"):
             how += "; six traces behind ideal analyzers: I, Q, U, V"
+        if info.get("hero", 0) > 1:
+            how += f"; each ray carries the {min(info['hero'], info['lines'])} lines of its block (HERO)"
         self.out(f"TRACE CAMERA {info['camera']}: {res.n_traced:,} camera rays ({how}, "
                  f"pixels {i0}..{i1 - 1} x {j0}..{j1 - 1}); "
                  f"{img.sum():.6g} W on the window, median relative standard error {med:.2%} on lit pixels "
@@ -670,6 +672,15 @@ class Engine:
             o = names.index(next(k for k in names if self.scene.objects[k].name == cam["light"]))
         flux = res.ledger[o, 0]
         se = result_standard_error(res, flux, res.ledger_sq[o])
+        if cam is not None and cam.get("hero", 0) > 1 and self.scene.objects[key].name == cam["camera"]:
+            # HERO: the light's ledger row is the hero lines' own (each ray books its hero's weight); the lines'
+            # combined estimates are the camera's image, per line (its pixels are independent: a source ray
+            # deposits in its start pixel only), without the QE the image applies
+            img, var = res.images[cam["camera"]]
+            qe = np.asarray(self.scene.objects[names[o]].detector.qe or np.ones(len(flux)), float)
+            q = np.where(qe > 0, qe, 1.0)
+            flux = img.reshape(len(flux), -1).sum(axis=1) / q
+            se = np.sqrt(var.reshape(len(flux), -1).sum(axis=1)) / q
         lines = ["wavelength_nm,flux_W,stderr_W"] + [f"{lam:.6g},{repr(float(f))},{repr(float(e))}"
                                                      for lam, f, e in zip(res.packed.lines_nm, flux, se)]
         shown = lines[:1] + lines[1:8] + (["..."] if len(lines) > 9 else []) + (lines[-1:] if len(lines) > 8 else [])

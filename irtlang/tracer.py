@@ -16,7 +16,7 @@ from .compile.pack import Packed, pack
 from .core.stats import standard_error, total_standard_error  # noqa: F401  (re-exported: irtlang.tracer.standard_error)
 from .compile.specialize import kernel_cached, kernel_lock, kernel_module
 from .kernels.reduce import reduce_batch
-from .kernels.layout import Detectors, Media, Objects, Records, Scatter, Settings, Sources, Surfaces, Tallies
+from .kernels.layout import SP_HERO, Detectors, Media, Objects, Records, Scatter, Settings, Sources, Surfaces, Tallies
 
 HISTORY_CAP = 16
 
@@ -175,7 +175,9 @@ class TraceContext:
         self.d_fm = np.concatenate(mats) if mats else np.zeros(0)
         self.d_fm_off = (np.concatenate([[0], np.cumsum([m.size for m in mats])[:-1]]).astype(np.int64) if mats
                          else np.zeros(0, np.int64))
-        self.cap = 2 * self.mod.CHUNK
+        # room for each chunk's deposits: about two per source ray, K with HERO K (one per line it carries)
+        hero = int(pk.src_par[:, SP_HERO].max()) if pk.src_par.shape[0] and pk.src_par.shape[1] > SP_HERO else 0
+        self.cap = 2 * self.mod.CHUNK * max(1, hero)
         self._dep_buf = None
         # the kernel's argument structures (irtlang.kernels.layout), built once per context
         self.surfaces = Surfaces(self.s_f, self.s_i, self.mesh_i, pk.bvh_bmin, pk.bvh_bmax, pk.bvh_child,

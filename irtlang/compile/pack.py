@@ -35,7 +35,7 @@ from ..plugins.surfaces import CODES as SURFACE_CODES, REGISTRY as SURFACES
 SK_PLANE, SK_CONIC, SK_SPHERE, SK_ELLIPSOID = (SURFACE_CODES[k] for k in ("PLANE", "CONIC", "SPHERE", "ELLIPSOID"))
 # N_TERMINAL_ROWS: EMITTED, ESCAPED, HALTED, LOST, the ledger's last rows
 from ..kernels.layout import (N_SRC_PAR, N_TERMINAL_ROWS, SP_CORRELATED, SP_DIRECTIONS, SP_ELLIPSE,  # noqa: E402
-                              SP_GUIDE, SP_GUIDE_ROW, SP_GUIDE_T, SP_PAIRED, SP_PILOT)
+                              SP_GUIDE, SP_GUIDE_ROW, SP_GUIDE_T, SP_HERO, SP_PAIRED, SP_PILOT)
 
 
 class MissingFeature(Exception):
@@ -63,7 +63,7 @@ class Features:
     importance: bool = False   # SCATTER ... TOWARD: next-event rays and the IMPORTANCE ledger row
     shells: bool = False       # nested concentric spheres/ellipsoids (atmosphere shells): test neighbours only
     polar: bool = False        # POLARIZATION (or a POLARIZER / RETARDER interface): Stokes vectors
-    camera: bool = False       # a TRACE CAMERA's sources: spectral samples, DIRECTIONS pairs, GUIDE tables
+    camera: bool = False       # a TRACE CAMERA's sources: spectral samples, DIRECTIONS pairs, GUIDE tables, HERO
     bsdf_kinds: tuple = ()     # the scatter-model kinds the scene uses (their dispatch order)
     source_kinds: tuple = ()   # the source kinds its sources use (emitters and directions; () compiles them all)
 
@@ -784,6 +784,14 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False, floor:
     src = _pack_sources(scene, lines, widths, obj_index)
     feats.source_kinds = source_kinds_of(src["src_kind"], src["src_dir"])
     feats.camera = any(s.kind == "CAMERA" for s in scene.sources)
+    hero = any(s.kind == "CAMERA" and int(s.params.get("hero") or 0) > 1 for s in scene.sources)
+    if hero and (feats.polar or feats.volume):
+        # the script's check rejects POLARIZATION and VOLUME media with HERO; a POLARIZER or RETARDER interface, or
+        # a VOLUME medium reached only here, would carry one Stokes vector or free path for all the lines
+        cam = next(s for s in scene.sources if s.kind == "CAMERA")
+        raise error(cam.span, "TRACE CAMERA ... HERO: the scene " + ("polarizes (a POLARIZER or RETARDER interface)"
+                    if feats.polar else "has a VOLUME medium") + ", which HERO does not carry per line",
+                    "trace it without HERO")
     for t in src["src_Th"]:
         if np.max(np.abs(t)) > 1e6:
             feats.precise = True
@@ -881,6 +889,8 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
                 lines_used = [k for k in range(L) if wl[k] > 0.0]
                 nl = len(lines_used)
                 out["src_lmap"][i, :nl] = lines_used
+                # HERO K: the ray of traced line q (lmap[q]) carries the lines of its block, lmap[K (q // K) ..]
+                par[SP_HERO] = min(int(p.get("hero") or 0), nl) if int(p.get("hero") or 0) > 1 else 0.0
             guide = p.get("guide")
             if guide is not None:
                 # GUIDE: t x t tiles of the start lattice, each a table of the aim cone's g x g cells (rows (cdf,

@@ -24,13 +24,17 @@ _FLAGS = {"conic": "F_CONIC", "quadric": "F_QUADRIC", "mesh": "F_MESH", "refract
           "scatter": "F_SCATTER", "maps": "F_MAPS", "volume": "F_VOLUME", "importance": "F_IMPORTANCE",
           "shells": "F_SHELLS", "polar": "F_POLAR",
           "camera": "F_CAMERA"}
-_FUNCS = ("sample", "eval", "albedo", "direct", "mueller")
+_FUNCS = ("sample", "eval", "albedo", "direct", "mueller", "pdf", "delta")
 _SIGS = {"sample": "P, k, wix, wiy, wiz, nx, ny, nz, u0, u1, u2",
          "eval": "P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz", "albedo": "P, k, cos_i", "direct": "P, k, cos_i",
-         "mueller": "P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz, q, u, v, ex, ey, ez"}
+         "mueller": "P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz, q, u, v, ex, ey, ez",
+         "pdf": "P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz", "delta": "P, k, cos_i"}
 _NAMES = {"sample": "sample", "eval": "eval", "albedo": "albedo", "direct": "direct_transmission",
-          "mueller": "mueller"}
-_DEFAULTS = {"mueller": ("irtlang.plugins.bsdfs._common", "depolarize")}   # optional in a plugin
+          "mueller": "mueller", "pdf": "pdf", "delta": "delta_prob"}
+# optional in a plugin: a Mueller matrix (default: depolarizing) and the probability of a sampled delta (the
+# unscattered beam of a slab; default: none)
+_DEFAULTS = {"mueller": ("irtlang.plugins.bsdfs._common", "depolarize"),
+             "delta": ("irtlang.plugins.bsdfs._common", "no_delta")}
 
 
 def bsdf_dispatch(kinds) -> str:

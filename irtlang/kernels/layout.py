@@ -76,8 +76,9 @@ SAMPLE_LATTICE, SAMPLE_RANDOM, SAMPLE_STRATIFIED, SAMPLE_SPECTRAL = range(4)
 #: ``pts_off`` (16: t^2 tables of g^2 rows (cdf, 1 / (g^2 pmf))); 1 for the guide's pilot (17: a DIRECTIONS
 #: camera whose rays report (stratum + 1/2, tile + 1/2) as their start point, for a DETECTOR ... START tally);
 #: 1 for a camera's paired spectral samples (18: SPECTRAL k, k even, without DIRECTIONS: k / 2 strata of the
-#: bands' cumulative weight, two independent rays in each, consecutive ids)
-N_SRC_PAR = 19
+#: bands' cumulative weight, two independent rays in each, consecutive ids); a camera's HERO K (19: each ray
+#: carries the K traced lines of its line's block, irtlang/kernels/trace_kernel.py "hero wavelengths")
+N_SRC_PAR = 20
 SP_DIRECTIONS = 11
 SP_ELLIPSE = 12
 SP_CORRELATED = 13
@@ -86,6 +87,7 @@ SP_GUIDE_T = 15
 SP_GUIDE_ROW = 16
 SP_PILOT = 17
 SP_PAIRED = 18
+SP_HERO = 19
 
 # ---------------------------------------------------------------------------------------------- tallies
 #: ledger columns

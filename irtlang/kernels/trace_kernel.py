@@ -37,7 +37,7 @@ from .layout import (AP_NONE, C_ABS, C_INC, C_REF, C_SCA, C_TRA, DIR_COLLIMATED,
                      FL_REFLECTED, FL_SCATTERED, FL_TRANSMITTED, IF_ABSORB, IF_FRESNEL, IF_METAL,
                      IF_POLARIZER, IF_REFLECT, IF_RETARDER, IF_SPLIT, PHASE_HG, PHASE_RAYLEIGH,
                      SAMPLE_SPECTRAL, SF_AP, SP_CORRELATED, SP_DIRECTIONS, SP_GUIDE, SP_GUIDE_ROW, SP_GUIDE_T,
-                     SP_PAIRED, SP_PILOT, SF_BS, SF_CL, SF_HOLE, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
+                     SP_HERO, SP_PAIRED, SP_PILOT, SF_BS, SF_CL, SF_HOLE, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
                      SI_AXIS, SI_CLEND, SI_FAM, SI_FNEXT, SI_FOUT, SI_FPREV, SI_KIND, SI_OBJ, SPEC_CLASS_MAP,
                      SPEC_FRACTION_MAP, SPEC_GATE, SPEC_MODEL)
 from .layout import Detectors, Media, Scatter, Sources, Surfaces
@@ -64,6 +64,8 @@ F_SHELLS = True
 F_POLAR = True
 F_CAMERA = True
 # ---- end of features ----
+F_HERO = F_CAMERA   # HERO K (a camera's hero wavelengths): in every camera kernel (a run's image and spectrum
+                    # traces share one), switched per source at run time
 
 CHUNK = 1024
 SMAX = 256          # pending paths per source ray (splitting, rays toward a target)
@@ -75,6 +77,14 @@ NEE_STRAIGHT_DN = 1e-3   # rays sent toward a target cross index steps smaller t
 SW = 20             # stack entry: ph(3) pl(3) d(3) w w0 ev excl nee path flags jlast opl sx sy, [q u v e1(3)], history
 SWP = SW + 6 if F_POLAR else SW     # where the history starts: after the Stokes state of a polarized trace
 EPS_SELF = 1e-9
+# HERO K (hero wavelengths): the rows of a chunk's scratch array HV (rows x K): per line t of the ray's block, its
+# weight a_t = f_t / p_hero and density ratio s_t = p_t / p_hero (the ray's state, on the stack too); a hit's R,
+# T, diffuse, slab keep and Fresnel R per line; the base and candidate weights of rays toward a target; the
+# source ray's accumulated deposit per line; the block's lines; scratch
+# (the rows after the stack's POOL row: Numba cannot inline a helper of more than 30 arguments, so the hero state
+# rides in the stack, with K and the hero's place in the POOL row's columns 2 and 3)
+H_A, H_S, H_R, H_T, H_D, H_K, H_RF, H_B, H_C, H_ACC, H_L, H_F, H_P = range(SMAX + 1, SMAX + 14)
+N_HERO_ROWS = 13
 SIDE_COS = 1e-7     # _nearest: a departure from a nested shell closer than this (cosine) to its tangent plane is
                     # grazing: its side is not trusted (its other root on that shell is then within ~2 R 1e-7)
 TWO_PI = 2.0 * math.pi
@@ -668,11 +678,13 @@ def _surface_normal(k, f, si, S, j, x, y, z, face):
 
 
 # ---- bsdf dispatch (rewritten by irtlang.compile.specialize for the models a scene uses) ----
+from irtlang.plugins.bsdfs.lambertian import sample as _sample_0
+from irtlang.plugins.bsdfs.lambertian import eval as _eval_0
 from irtlang.plugins.bsdfs.lambertian import albedo as _albedo_0
 from irtlang.plugins.bsdfs.lambertian import direct_transmission as _direct_0
-from irtlang.plugins.bsdfs.lambertian import eval as _eval_0
-from irtlang.plugins.bsdfs.lambertian import sample as _sample_0
 from irtlang.plugins.bsdfs._common import depolarize as _mueller_0
+from irtlang.plugins.bsdfs.lambertian import pdf as _pdf_0
+from irtlang.plugins.bsdfs._common import no_delta as _delta_0
 
 
 @numba.njit(cache=True)
@@ -698,6 +710,16 @@ def _bsdf_direct(kind, P, k, cos_i):
 @numba.njit(cache=True)
 def _bsdf_mueller(kind, P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz, q, u, v, ex, ey, ez):
     return _mueller_0(P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz, q, u, v, ex, ey, ez)
+
+
+@numba.njit(cache=True)
+def _bsdf_pdf(kind, P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz):
+    return _pdf_0(P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz)
+
+
+@numba.njit(cache=True)
+def _bsdf_delta(kind, P, k, cos_i):
+    return _delta_0(P, k, cos_i)
 # ---- end of bsdf dispatch ----
 
 # ---------------------------------------------------------------------------------------------- the trace
@@ -1012,6 +1034,232 @@ def _phase_turn(pk, gg, gam, depol, v0, v1, dx, dy, dz, ex, ey, ez, stq, stu, st
     return dx, dy, dz, ex, ey, ez, stq, stu, stv
 
 
+# ---------------------------------------------------------------------------------------------- hero wavelengths
+# TRACE CAMERA ... HERO K (docs/tracer.md, "Hero wavelengths"): a camera ray of traced line h (the hero) carries
+# the K lines of h's block.  Every random choice is the hero's; per line t the ray keeps a_t = f_t / p_h (its
+# integrand over the hero's path density) and s_t = p_t / p_h (the density its path would have had with t as the
+# hero), and a deposit adds a_t / sum(s) to line t: the balance heuristic over the block's K heroes (Veach's
+# multi-sample MIS with one sample per line; Wilkie et al. 2014).  The roulettes decide on the lines' combined
+# weight, which is the same whichever line is the hero, so they drop out of the density ratios.  The hero's own
+# scalar weight w still books the ledger, as a one-line trace would.
+@numba.njit(cache=True, inline="always")
+def _hero_start(SRC, s, i0, total, line, w, HV):
+    """A HERO source ray: its block's lines (HV row H_L), weights a_t = w L_t / L_h (the start's factors other
+    than the line's are common) and ratios s_t = 1.  Returns (K of this block, the hero's place in it)."""
+    K = int(SRC.par[s, SP_HERO])
+    ii = i0 if i0 < total else i0 % total
+    n = SRC.n[s]
+    slot = (ii - SRC.off[s]) // n
+    end = SRC.off[s + 1] if s + 1 < SRC.off.shape[0] else total
+    nl = (end - SRC.off[s]) // n
+    b0 = (slot // K) * K
+    kb = min(K, nl - b0)
+    ws = SRC.w[s, line]
+    for t in range(kb):
+        lt = SRC.lmap[s, b0 + t]
+        HV[H_L, t] = lt
+        HV[H_A, t] = w * SRC.w[s, lt] / ws if ws > 0.0 else 0.0
+        HV[H_S, t] = 1.0
+        HV[H_ACC, t] = 0.0
+    return kb, slot - b0
+
+
+@numba.njit(cache=True, inline="always")
+def _hero_alive(HV, K):
+    """Whether any of the ray's lines still carries weight (the hero's own may be 0 where another's is not)."""
+    for t in range(K):
+        if HV[H_A, t] > 0.0:
+            return True
+    return False
+
+
+@numba.njit(cache=True, inline="always")
+def _hero_combined(HV, K):
+    """The lines' combined weight sum(a) / sum(s): the same whichever line is the hero (the roulettes' measure)."""
+    a = 0.0
+    r = 0.0
+    for t in range(K):
+        a += HV[H_A, t]
+        r += HV[H_S, t]
+    return a / r
+
+
+@numba.njit(cache=True, inline="always")
+def _hero_shares(HV, K, SC, MD, itf, cc, ci, gz, fm_nee, specs, ll, sc, cos_i, nee):
+    """Each line's R, T, diffuse share, slab keep and the boundary's Fresnel R at this hit, as the scalar code
+    computes the hero's: the interface (_specular), an opaque gate (gz), then the map's expected value for a ray
+    aimed at a target (fm_nee) or the chosen model's share.  itf (interface, m1, m2), specs (first, count)."""
+    it, m1, m2 = itf
+    scf, scn = specs
+    for t in range(K):
+        lt = int(HV[H_L, t])
+        R, T, _a, _b, _c, _d, _e, _f, _g, _h = _specular(MD, it, cc, lt, ci, m1, m2)
+        Rf = R
+        if gz:
+            R = 0.0
+            T = 0.0
+        D = 0.0
+        kp = 1.0
+        if F_MAPS and fm_nee:
+            R, T = _nee_map_mix(SC, MD, scf, scn, ll, lt, cos_i, itf, R, T, Rf)
+        elif F_SCATTER and sc >= 0:
+            R, T, D, kp, _mk, _P = _model_share(SC, MD, sc, lt, cos_i, itf, R, T, Rf, nee)
+        HV[H_R, t] = R
+        HV[H_T, t] = T
+        HV[H_D, t] = D
+        HV[H_K, t] = kp
+        HV[H_RF, t] = Rf
+
+
+@numba.njit(cache=True, inline="always")
+def _hero_choose(HV, K, hi, row):
+    """The hero took the specular part `row` (H_R or H_T) with probability E_h / tot_h: each line's weight
+    times E_t / that, its ratio times (E_t / tot_t) / that."""
+    th = HV[H_R, hi] + HV[H_T, hi] + HV[H_D, hi]
+    ph = HV[row, hi] / th
+    for t in range(K):
+        e = HV[row, t]
+        tt = HV[H_R, t] + HV[H_T, t] + HV[H_D, t]
+        HV[H_A, t] *= e / ph
+        HV[H_S, t] *= (e / tt if tt > 0.0 else 0.0) / ph
+
+
+@numba.njit(cache=True, inline="always")
+def _hero_diffuse(HV, K, hi, mk, Pm, wi, wo, nv, cos_i, delta):
+    """The hero took the diffuse part (probability D_h / tot_h) and its model drew wo (its pdf), or the model's
+    delta (its unscattered beam, with the model's delta_prob): per line the integrand keep_t f_t |cos| (a delta:
+    keep_t times the direct transmission) and the density (D_t / tot_t) pdf_t, over the hero's."""
+    wix, wiy, wiz = wi
+    wox, woy, woz = wo
+    nvx, nvy, nvz = nv
+    co = abs(wox * nvx + woy * nvy + woz * nvz)
+    for t in range(K):
+        lt = int(HV[H_L, t])
+        tt = HV[H_R, t] + HV[H_T, t] + HV[H_D, t]
+        f = 0.0
+        p = 0.0
+        if tt > 0.0 and HV[H_D, t] > 0.0:
+            if delta:
+                f = HV[H_K, t] * _bsdf_direct(mk, Pm, lt, cos_i)
+                p = HV[H_D, t] / tt * _bsdf_delta(mk, Pm, lt, cos_i)
+            else:
+                f = HV[H_K, t] * _bsdf_eval(mk, Pm, lt, wix, wiy, wiz, wox, woy, woz, nvx, nvy, nvz) * co
+                p = HV[H_D, t] / tt * _bsdf_pdf(mk, Pm, lt, wix, wiy, wiz, wox, woy, woz, nvx, nvy, nvz)
+        HV[H_F, t] = f
+        HV[H_P, t] = p
+    ph = HV[H_P, hi]
+    for t in range(K):
+        if ph > 0.0:
+            HV[H_A, t] *= HV[H_F, t] / ph
+            HV[H_S, t] *= HV[H_P, t] / ph
+        else:       # (not for a sample the hero's model drew: a guard)
+            HV[H_A, t] = 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _hero_toward(stack, sp, npath, led, c, r_imp, line, key, kc, mk, P, tgt, nr, nee_cut, o_bc, o_br, pos, d, nv,
+                 o, j, opl, sx0, sy0, hist, H):
+    """_bsdf_toward for a HERO ray: per line the candidate a_t (its base weight in row H_B) f_t |cos| Omega / nr,
+    pushed with every line's weight (the stack's hero columns) and ratios, the hero's own weight as its scalar.
+    The roulette below `nee_cut` must not depend on which line is the hero: it keeps a candidate with
+    probability pi f_0 |cos| / cut, f_0 the model at the block's first line (what the one-line rule gives a ray
+    of unit weight against a white Lambertian's), so the other lines' models are evaluated only for the
+    candidates it keeps (most are not: a camera path sends one at every shell); where f_0 = 0 it decides on the
+    lines' combined weight sum(a f) / sum(s) against sum(a) / sum(s) instead."""
+    seed, i, ev, path = key
+    phx, phy, phz, plx, ply, plz = pos
+    dx, dy, dz = d
+    nvx, nvy, nvz = nv
+    K = int(stack[POOL, 2])
+    hi = int(stack[POOL, 3])
+    HB = SWP + H        # the stack's hero columns: a_t (KH), then s_t (KH)
+    KH = (stack.shape[1] - HB) // 2
+    bsum = 0.0
+    ssum = 0.0
+    for t in range(K):
+        bsum += stack[H_B, t]
+        ssum += stack[H_S, t]
+    for q in range(nr):
+        qd = kc + q
+        v0, v1 = uniform2(seed, i, ev, path * 64 + 8 + 2 * qd)
+        ox_, oy_, oz_, om = _toward(phx, phy, phz, plx, ply, plz, o_bc, o_br, tgt, v0, v1)
+        co = abs(ox_ * nvx + oy_ * nvy + oz_ * nvz)
+        g = co * om / nr
+        kf = 1.0
+        done = False
+        if nee_cut > 0.0 and bsum > 0.0:
+            f0 = _bsdf_eval(mk, P, int(stack[H_L, 0]), -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz)
+            if f0 > 0.0:
+                pk = math.pi * f0 * co / nee_cut
+                if pk < 1.0:
+                    kept, total = systematic_keep(stack[POOL, 0], pk, stack[POOL, 1])
+                    stack[POOL, 0] = total
+                    kf = 1.0 / pk if kept else 0.0
+                done = True
+        csum = 0.0
+        if kf > 0.0:
+            for t in range(K):
+                f = _bsdf_eval(mk, P, int(stack[H_L, t]), -dx, -dy, -dz, ox_, oy_, oz_, nvx, nvy, nvz)
+                stack[H_C, t] = stack[H_B, t] * f * g
+                csum += stack[H_C, t]
+            if nee_cut > 0.0 and not done and csum > 0.0:
+                cs = csum / ssum
+                kf = _nee_roulette(stack, cs, bsum / ssum * om / (math.pi * nr), nee_cut) / cs
+        if kf > 0.0 and csum > 0.0 and sp < SMAX:
+            if F_HISTORY and ev - 1 < H:
+                hist[ev - 1] = o * 8 + EV_S
+            cw = stack[H_C, hi] * kf
+            _push(stack, sp, phx, phy, phz, plx, ply, plz, ox_, oy_, oz_, cw, csum * kf / ssum, ev, -1.0, 1.0, npath,
+                  FL_SCATTERED, j, opl, sx0, sy0, hist, H, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+            for t in range(K):
+                stack[sp, HB + t] = stack[H_C, t] * kf
+                stack[sp, HB + KH + t] = stack[H_S, t]
+            sp += 1
+            npath += 1
+            led[c, r_imp, C_ABS, line] -= cw
+        elif nee_cut > 0.0 and (done or csum > 0.0):
+            npath += 1      # a candidate the roulette dropped keeps its path id (_nee_roulette)
+    return sp, npath
+
+
+@numba.njit(cache=True, inline="always")
+def _hero_deposit(D, dd, HV, K, sx0, sy0):
+    """A HERO ray reaches the camera trace's light (a DETECTOR ... START): line t of the block gains
+    a_t / sum(s) times its QE, for the source ray's pixel (its start point's: the same for all its paths), added
+    up over the source ray (_hero_emit writes them).  Returns the pixel (ix, iy), or (-1, -1) outside."""
+    x0 = D.ext[dd, 0]
+    x1 = D.ext[dd, 1]
+    y0 = D.ext[dd, 2]
+    y1 = D.ext[dd, 3]
+    if not (sx0 >= x0 and sx0 <= x1 and sy0 >= y0 and sy0 <= y1):
+        return -1, -1
+    ix = min(D.nx[dd] - 1, int((sx0 - x0) / (x1 - x0) * D.nx[dd]))
+    iy = min(D.ny[dd] - 1, int((sy0 - y0) / (y1 - y0) * D.ny[dd]))
+    r = 0.0
+    for t in range(K):
+        r += HV[H_S, t]
+    for t in range(K):
+        HV[H_ACC, t] += HV[H_A, t] / r * D.qe[dd, int(HV[H_L, t])]
+    return ix, iy
+
+
+@numba.njit(cache=True, inline="always")
+def _hero_emit(D, dd, ix, iy, HV, K, dep_idx, dep_w, dep_d, c, ndep, cap):
+    """The end of a HERO source ray: its deposits, one per line of its block that gained any (then cleared)."""
+    nx = D.nx[dd]
+    ny = D.ny[dd]
+    for t in range(K):
+        v = HV[H_ACC, t]
+        if v != 0.0:
+            if ndep < cap:
+                dep_idx[c, ndep] = D.off[dd] + (int(HV[H_L, t]) * ny + iy) * nx + ix
+                dep_w[c, ndep] = v
+                dep_d[c, ndep] = v
+            ndep += 1
+        HV[H_ACC, t] = 0.0
+    return ndep
+
+
 @numba.njit(cache=True, inline="always")
 def _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, kc, mk, P, tgt, nr, w, nee_cut, o_bc, o_br, pos, d, nv,
                  pol, o, j, opl, sx0, sy0, hist, H):
@@ -1020,12 +1268,16 @@ def _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, kc, mk, P, tgt, nr,
     booked negative on the IMPORTANCE row.  Random stream path * 64 + 8 + 2 (kc + q) (+ 9 unused since the
     roulette became systematic, _nee_roulette: (event 0, dimension 7) of the source ray).  The ray's state
     comes as tuples: key (seed, ray, event, path), pos (double-double position), d, nv (the normal on the
-    incoming side), pol (q, u, v, e1).  Returns (sp, npath)."""
+    incoming side), pol (q, u, v, e1).  A HERO ray (K = stack[POOL, 2] > 0): each line's base weight in the
+    stack's row H_B; _hero_toward sends the rays.  Returns (sp, npath)."""
     seed, i, ev, path = key
     phx, phy, phz, plx, ply, plz = pos
     dx, dy, dz = d
     nvx, nvy, nvz = nv
     stq, stu, stv, ex, ey, ez = pol
+    if F_HERO and stack[POOL, 2] > 0.0:
+        return _hero_toward(stack, sp, npath, led, c, r_imp, line, key, kc, mk, P, tgt, nr, nee_cut, o_bc, o_br, pos,
+                            d, nv, o, j, opl, sx0, sy0, hist, H)
     for q in range(nr):
         qd = kc + q
         v0, v1 = uniform2(seed, i, ev, path * 64 + 8 + 2 * qd)
@@ -1262,6 +1514,15 @@ def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, MD, scf, scn, nee, 
             if mq >= 0 and tq >= 0 and pmix > 0.0:
                 nr = SC.rays[spn]
                 wq = w * pmix * keep if SC.mod_slab[mq] == 1 else w * pmix
+                if F_HERO and stack[POOL, 2] > 0.0:
+                    # each line's share: its own Fresnel keep behind an index step (row H_RF)
+                    for t in range(int(stack[POOL, 2])):
+                        kt = 1.0
+                        if SC.mod_slab[mq] == 1 and F_REFRACT and it == IF_FRESNEL:
+                            lt = int(stack[H_L, t])
+                            if MD.n[m1, lt] != MD.n[m2, lt]:
+                                kt = 1.0 - stack[H_RF, t]
+                        stack[H_B, t] = stack[H_A, t] * pmix * kt
                 sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, kc, SC.mod_kind[mq],
                                          SC.mod_P[mq].T, tq, nr, wq, nee_cut, o_bc, o_br, pos, d, nv, pol, o, j, opl,
                                          sx0, sy0, hist, H)
@@ -1293,6 +1554,9 @@ def _model_split(stack, sp, npath, led, c, r_imp, key, line, SC, MD, spec, geo, 
     # rays sent toward the target (next-event estimation), exact weights; a slab on an index step sends only
     # what the boundary lets in
     if F_IMPORTANCE and sc_tgt >= 0 and not nee and not ev_nee:
+        if F_HERO and stack[POOL, 2] > 0.0:
+            for t in range(int(stack[POOL, 2])):
+                stack[H_B, t] = stack[H_A, t] * stack[H_K, t]
         sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, 0, mk, Pm, sc_tgt, sc_n, w * keep,
                                  nee_cut, o_bc, o_br, pos, d, nv, pol, o, j, opl, sx0, sy0, hist, H)
     return R, T, diffuse, keep, mk, Pm, sp, npath
@@ -1585,6 +1849,12 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
     rcap = rec_w.shape[1]
     H = rec_hist.shape[2]
     src_dw = _collimated_dirs(SRC)
+    # HERO K: the largest block a source's rays carry (the scratch rows and the stack's hero columns)
+    KH = 1
+    if F_HERO:
+        for s_ in range(src_par.shape[0]):
+            KH = max(KH, int(src_par[s_, SP_HERO]))
+    HB = SWP + H        # the stack's hero columns: a_t (KH), then s_t (KH)
     # Numba's parallel loop gives each thread one contiguous block of its indices (its set_parallel_chunksize
     # changed nothing here), while neighbouring chunks cost alike and far ones not (an image's upper and lower
     # rows, a spectrum's short and long lines): the loop index is spread over the chunks by a stride coprime
@@ -1604,7 +1874,9 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
             src_toward, src_pts, src_pts_off, src_lmap)
         ndep = 0
         nrec = 0
-        stack = np.empty((SMAX + 1, SWP + H))     # + the row POOL
+        # + the row POOL; HERO: the hero columns (a_t, s_t of each entry) and the rows H_A ..
+        stack = np.empty((SMAX + 1 + (N_HERO_ROWS if F_HERO else 0), SWP + H + (2 * KH if F_HERO else 0)))
+        HV = stack
         hist = np.full(max(H, 1), -1.0)
         Pm = mod_P[0].T
         # per source ray: incident flux per object, so that inc_sq and the images' squares sum the squares of
@@ -1623,6 +1895,16 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
             s, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, sx0, sy0, pm, i = _gen(i, total, seed, SRC, o_bc,
                                                                                          o_br, src_dw)
             led[c, r_emit, C_INC, line] += w
+            HK = 0      # HERO: the lines this source ray carries (0: one, `line`), the hero's place among them
+            hi = 0
+            hdd = -1    # and the detector and pixel of its deposits (_hero_deposit)
+            hix = 0
+            hiy = 0
+            if F_HERO and src_par[s, SP_HERO] > 1.0:
+                HK, hi = _hero_start(SRC, s, first + ii, total, line, w, HV)
+            if F_HERO:
+                stack[POOL, 2] = HK
+                stack[POOL, 3] = hi
             if pm != 2:         # a pair's second ray adds to its first's tallies (_close_pair)
                 nt = 0
                 dep0 = ndep
@@ -1635,6 +1917,8 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
             # the source ray's own path starts from these locals; split paths and rays sent toward a target
             # wait on the stack (the same state a push/pop would give, without the 2 x 20 memory moves)
             w0 = w
+            if F_HERO and HK > 0:
+                w0 = _hero_combined(HV, HK)     # the roulette's reference: the lines' combined weight
             ev = 0
             excl = -1
             nee = False
@@ -1661,6 +1945,10 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                     sp -= 1
                     (phx, phy, phz, plx, ply, plz, dx, dy, dz, w, w0, ev, excl, nee, path, flags, jlast, opl, sx0,
                      sy0, stq, stu, stv, ex, ey, ez) = _pop(stack, sp, hist, H, stq, stu, stv, ex, ey, ez)
+                    if F_HERO and HK > 0:
+                        for tq_ in range(HK):
+                            HV[H_A, tq_] = stack[sp, HB + tq_]
+                            HV[H_S, tq_] = stack[sp, HB + KH + tq_]
                 last = -1
                 hx = phx + plx
                 hy = phy + ply
@@ -1672,9 +1960,9 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                 ady = dy
                 adz = dz
                 aw = w
-                if w == 0.0:
+                if w == 0.0 and not (F_HERO and HK > 0 and _hero_alive(HV, HK)):
                     flags |= FL_ESCAPED
-                while w > 0.0:
+                while w > 0.0 or (F_HERO and HK > 0 and _hero_alive(HV, HK)):
                     if ev >= level:
                         led[c, r_halt, C_ABS, line] += w
                         flags |= FL_HALTED
@@ -1707,6 +1995,9 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                             continue
                     if F_ABSORB_MEDIA and it >= IF_SPLIT:
                         a = med_alpha[m1, line]
+                        if F_HERO and HK > 0:
+                            for tt_ in range(HK):
+                                HV[H_A, tt_] *= math.exp(-med_alpha[m1, int(HV[H_L, tt_])] * t)
                         if a > 0.0:
                             keep = math.exp(-a * t)
                             led[c, med_row[m1], C_INC, line] += w
@@ -1727,10 +2018,13 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                         w = 0.0
                         break
                     led[c, o, C_INC, line] += w
-                    if acc[o] == 0.0:
-                        touched[nt] = o
-                        nt += 1
-                    acc[o] += w
+                    # (a HERO ray goes on where its hero's own weight is 0: it adds nothing, and must not take a
+                    # second place in `touched`)
+                    if not (F_HERO and w == 0.0):
+                        if acc[o] == 0.0:
+                            touched[nt] = o
+                            nt += 1
+                        acc[o] += w
                     hx = phx + plx
                     hy = phy + ply
                     hz = phz + plz
@@ -1743,7 +2037,11 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                     aw = w
                     last = o
                     dd = o_det[o]
-                    if dd >= 0:
+                    if F_HERO and HK > 0 and dd >= 0:
+                        hix, hiy = _hero_deposit(D, dd, HV, HK, sx0, sy0)
+                        if hix >= 0:
+                            hdd = dd
+                    elif dd >= 0:
                         ndep, ex, ey, ez = _deposit(D, dd, dep_idx, dep_w, dep_d, c, ndep, cap, line, led.shape[3], w,
                                                     lx, ly, sx0, sy0, s_f, j, dx, dy, dz, ex, ey, ez, stq, stu, stv)
                     # the interface: specular R and T, absorbed A
@@ -1764,12 +2062,17 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                             if sp_kind[scf + qq] != SPEC_MODEL:
                                 glat, glon = geodetic(lx, ly, lz)
                                 break
+                    gz = False      # HERO: an opaque gate zeroes every line's R and T
                     if F_MAPS and scn > 0 and sp_kind[scf] == SPEC_GATE:
+                        if F_HERO and HK > 0:
+                            gm_ = sp_map[scf]
+                            gz = map_value(map_data, map_off[gm_], map_nlat[gm_], map_nlon[gm_], glat, glon) > 0.5
                         R, T, scf, scn = _gate(SC, scf, scn, (glat, glon), R, T)
                     # which scatter model applies here: an object's SCATTER specs, tried in order
                     mk = 0
                     cos_i = abs(ci)
-                    if F_MAPS and nee and _has_fraction_map(SC, scf, scn):
+                    fm_nee = F_MAPS and nee and _has_fraction_map(SC, scf, scn)
+                    if fm_nee:
                         # a ray aimed at a target: the expected value over the map's choice (_nee_map_mix)
                         R, T = _nee_map_mix(SC, MD, scf, scn, (glat, glon), line, cos_i, (it, m1, m2), R, T,
                                             Ar + Br * stq if F_POLAR else Rfr)
@@ -1783,6 +2086,9 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                     nvz = nwz if front else -nwz
                     diffuse = 0.0
                     slab_keep = 1.0
+                    if F_HERO and HK > 0:
+                        _hero_shares(HV, HK, SC, MD, (it, m1, m2), o_coat[o], ci, gz, fm_nee, (scf, scn),
+                                     (glat, glon), sc, cos_i, nee)
                     # a fraction map's models all send their rays toward their targets (expected value)
                     ev_nee, sp, npath = _map_nee(stack, sp, npath, led, c, r_imp, (seed, i, ev, path), line, SC, MD,
                                                  scf, scn, nee, w, nee_cut, o_bc, o_br,
@@ -1800,15 +2106,23 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                     if tot <= 0.0:
                         led[c, o, C_ABS, line] += w
                         w = 0.0
+                        if F_HERO and HK > 0:
+                            for tq_ in range(HK):
+                                HV[H_A, tq_] = 0.0
                     else:
                         u, _u = uniform2(seed, i, ev, path * 64) if (R > 0.0) + (T > 0.0) + (diffuse > 0.0) > 1 \
                             else (0.5, 0.5)
                         x_ = u * tot
                         if x_ < R + T:
+                            if F_HERO and HK > 0:
+                                _hero_choose(HV, HK, hi, H_R if x_ < R else H_T)
                             w, dx, dy, dz, stq, stu, stv, flags, excl, evkind = _specular_turn(
                                 led, c, line, o, x_ < R, w, tot, ci, (nwx, nwy, nwz), (dx, dy, dz), (stq, stu, stv),
                                 (Ar, Br, xr, yr, At, Bt, xt, yt), it, o_pol, MD, (m1, m2), nee, flags, excl)
                         else:
+                            odx = dx
+                            ody = dy
+                            odz = dz
                             (w, w0, dx, dy, dz, stq, stu, stv, ex, ey, ez, flags, excl, evkind, sp,
                              npath) = _diffuse_scatter(stack, sp, npath, led, c, r_lost, (seed, i, ev, path), line, MD,
                                                        mk, Pm, (sc_n, sc_tgt), (o, j, it, m1, m2), (nwx, nwy, nwz),
@@ -1816,11 +2130,32 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                                                        (phx, phy, phz, plx, ply, plz), (dx, dy, dz),
                                                        (stq, stu, stv, ex, ey, ez), opl, sx0, sy0, hist, H,
                                                        (flags, excl))
+                            if F_HERO and HK > 0:
+                                _hero_diffuse(HV, HK, hi, mk, Pm, (-odx, -ody, -odz), (dx, dy, dz), (nvx, nvy, nvz),
+                                              cos_i, evkind == EV_T)
                     if F_HISTORY and ev - 1 < H:
                         hist[ev - 1] = o * 8 + evkind
                     jlast = j      # the surface just left: its departure root is dropped on the next search
                     # Russian roulette
-                    if w > 0.0 and w < halt * w0:
+                    if F_HERO and HK > 0:
+                        # on the lines' combined weight (the same whichever line is the hero): the survivors'
+                        # weights, the hero's included, grow by 1 / p; the ratios s_t do not change
+                        wc = _hero_combined(HV, HK)
+                        if wc > 0.0 and wc < halt * w0:
+                            ur, _u = uniform2(seed, i, ev, path * 64 + 63)
+                            pq = wc / (halt * w0)
+                            if ur < pq:
+                                for tq_ in range(HK):
+                                    HV[H_A, tq_] /= pq
+                                led[c, r_halt, C_ABS, line] -= w / pq - w
+                                w /= pq
+                            else:
+                                for tq_ in range(HK):
+                                    HV[H_A, tq_] = 0.0
+                                led[c, r_halt, C_ABS, line] += w
+                                w = 0.0
+                                flags |= FL_HALTED
+                    elif w > 0.0 and w < halt * w0:
                         ur, _u = uniform2(seed, i, ev, path * 64 + 63)
                         w, booked = _roulette(w, w0, halt, ur)
                         led[c, r_halt, C_ABS, line] += booked
@@ -1832,6 +2167,8 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                                 rec_opl, rec_start, c, nrec, (hx, hy, hz, hlx, hly, hlz), (adx, ady, adz), aw, line,
                                 s, last, ev, flags, opl, sx0, sy0, hist, H)
                     nrec += 1
+            if F_HERO and HK > 0 and hdd >= 0:
+                ndep = _hero_emit(D, hdd, hix, hiy, HV, HK, dep_idx, dep_w, dep_d, c, ndep, cap)
             if F_CAMERA and pm == 1:
                 # the first ray of a stratified pair: its tallies wait for the second's
                 for q in range(nt):

@@ -795,6 +795,10 @@ def _square(x):
     return None if r * r == x else "must be a square (1, 4, 9, 16, ...): s x s stratified rays per pixel"
 
 
+def _hero_lines(v):
+    return None if v >= 1 and v == int(v) else "must be a whole number of lines, 1 or more (1: off)"
+
+
 def _guide_cells(x):
     return None if x == 0 or 4 <= x <= 64 else "must be 4 to 64 (0: off)"
 
@@ -814,6 +818,9 @@ def _guide_cells(x):
                                        "cone (standard errors from the pairs)"),
                             Clause("CORRELATED", (), doc="every line of a camera ray position draws the same random "
                                                          "numbers: a spectrum's shape is sharper than each line"),
+                            Clause("HERO", (V("hero", integer=True, check=_hero_lines),),
+                                   doc="hero wavelengths: each camera ray carries the K traced lines of its line's "
+                                       "block (K consecutive lines), every line gaining from every ray (with DIRECTIONS)"),
                             Clause("GUIDE", (V("guide", integer=True, check=_guide_cells),),
                                    doc="draw camera rays' directions from g x g cells of the aim cone, as a pilot "
                                        "trace through the instrument found them leaving it (unbiased; 0: off)"),
@@ -853,11 +860,11 @@ def _trace(it, b, st):
     _warn_consider(it, b)
     camera = None
     if ("camera" in b or "aim" in b or "per_pixel" in b or "i0" in b or "spectral" in b or "cam_filter" in b
-            or "stokes" in b or "directions" in b or "correlated" in b or "guide" in b):
+            or "stokes" in b or "directions" in b or "correlated" in b or "guide" in b or "hero" in b):
         if "camera" not in b or "aim" not in b:
             raise error(b.span, "a camera-side TRACE needs both CAMERA obj and AIM obj",
                         "TRACE CAMERA fpa AIM secondary [RAYS n] [SPECTRAL k] [DIRECTIONS m | GUIDE g] [CORRELATED] "
-                        "[WINDOW i0 i1 j0 j1] [FILTER f] [STOKES]")
+                        "[HERO K] [WINDOW i0 i1 j0 j1] [FILTER f] [STOKES]")
         if "stokes" in b and not s.polarization:
             raise error(b.span_of("stokes"), "TRACE CAMERA ... STOKES needs a polarized trace",
                         "put POLARIZATION before the TRACE")
@@ -895,6 +902,21 @@ def _trace(it, b, st):
             raise error(b.span_of("guide"), "TRACE CAMERA ... GUIDE cannot be combined with DIRECTIONS",
                         "DIRECTIONS m stratifies the aim cone for spectra; GUIDE g draws band images' rays where they "
                         "leave the instrument: give one of them")
+        if b.get("hero", 0) > 1:
+            # hero wavelengths (irtlang/kernels/trace_kernel.py, docs/tracer.md "Hero wavelengths"), built for the
+            # spectra of a one-pixel camera: every line traced into its own image, pairs for the errors
+            why = ("it needs DIRECTIONS m (its standard errors come from the pairs)" if "directions" not in b else
+                   "SPECTRAL draws one line per ray" if "spectral" in b else
+                   "its lines must be traced into their own images (a DETECTOR without FILTERS)" if filters else
+                   "CORRELATED shares the random numbers it takes apart" if "correlated" in b else
+                   "STOKES and POLARIZATION carry a Stokes vector per ray, not per line" if s.polarization else
+                   "a VOLUME medium's free paths are not sampled per line" if any(
+                       (m.params or {}).get("volume") for m in s.media.values()) else None)
+            if why is not None:
+                raise error(b.span_of("hero"), f"TRACE CAMERA ... HERO: {why}",
+                            "HERO K is for spectra: TRACE CAMERA pupil AIM obj DIRECTIONS m HERO K, the camera's "
+                            "DETECTOR without FILTERS, no SPECTRAL, CORRELATED, POLARIZATION or VOLUME media",
+                            notes=[(cam.span, "the camera object")])
         only = None
         if "cam_filter" in b:
             names = [f.upper() for f in filters]
@@ -908,7 +930,7 @@ def _trace(it, b, st):
         camera = {"camera": b["camera"], "aim": b["aim"], "sub": math.isqrt(int(b.get("per_pixel", 1))),
                   "window": win, "spectral": int(b.get("spectral", 0)), "filter": only, "stokes": "stokes" in b,
                   "directions": int(b.get("directions", 0)), "correlated": "correlated" in b,
-                  "guide": int(b.get("guide", 0))}
+                  "guide": int(b.get("guide", 0)), "hero": int(b.get("hero", 0))}
         # the light's band irradiance at 1 AU (W/m2) per image of the camera, for I/F; set by the run, 0 here
         for fname in (filters or [""]):
             it.assign("CAMERA_SUN" + (f"_{fname}" if fname else ""), Quantity(0.0, NONE), b.span)

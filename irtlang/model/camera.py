@@ -180,7 +180,7 @@ def camera_scene(scene: M.Scene, params: dict, span: Span, analyzer: tuple = ())
         extent=extent, nx=i1 - i0, ny=j1 - j0, sub=params["sub"], side=side, aim=params["aim"], frame=frame,
         pixel_area=px * py * (math.pi / 4 if ellipse else 1.0), ellipse=ellipse, light_radius=lp["radius"],
         light_flux=light.flux, response=response, spectral=spectral, directions=int(params.get("directions") or 0),
-        correlated=bool(params.get("correlated")),
+        correlated=bool(params.get("correlated")), hero=int(params.get("hero") or 0),
         paired=spectral_paired(spectral, int(params.get("directions") or 0)))),
         cam.group, light.flux, span)
     sc2 = M.replace(scene, objects=M.frozen_params(new_objs), media=M.frozen_params(media), sources=(src,))
@@ -188,7 +188,7 @@ def camera_scene(scene: M.Scene, params: dict, span: Span, analyzer: tuple = ())
     info = dict(camera=cam.name, light=lname, window=(i0, i1, j0, j1),
                 rays_per_pixel_line=params["sub"] ** 2 * (2 * m * m if m else 1),
                 paired=m > 0 or spectral_paired(spectral, m), directions=m,
-                correlated=bool(params.get("correlated")),
+                correlated=bool(params.get("correlated")), hero=int(params.get("hero") or 0),
                 side=side,
                 # samples: the rays per point behind one pixel of one image: SPECTRAL k draws k lines per
                 # point (an image takes its share of them); every line traced: a FILTERS image sums them

@@ -269,6 +269,12 @@ def slab_scatter(wix, wiy, wiz, nx, ny, nz, mu, u, tau, ci, norm, om):
     return ox, oy, oz, G * abs(co) * norm / om, False
 
 
+@numba.njit(cache=True, inline="always")
+def no_delta(P, k, cos_i):
+    """A scatter model's ``delta_prob`` when its ``sample`` never returns a delta: 0."""
+    return 0.0
+
+
 # ---------------------------------------------------------------- polarization
 @numba.njit(cache=True, inline="always")
 def depolarize(P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz, q, u, v, ex, ey, ez):

@@ -155,6 +155,15 @@ def pdf(P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz):
 
 
 @numba.njit(cache=True, fastmath=False)
+def delta_prob(P, k, cos_i):
+    """The probability with which sample() returns the direct beam (a delta along -wi) at cos_i: e / (R + T + e)."""
+    R, T = _rt(P, k, max(cos_i, MU_MIN))
+    e = _direct(P, k, cos_i)
+    tot = R + T + e
+    return e / tot if tot > 0.0 else 0.0
+
+
+@numba.njit(cache=True, fastmath=False)
 def sample(P, k, wix, wiy, wiz, nx, ny, nz, u0, u1, u2):
     """(wox, woy, woz, weight, delta); see the module docstring."""
     ci = wix * nx + wiy * ny + wiz * nz

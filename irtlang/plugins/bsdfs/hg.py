@@ -177,6 +177,12 @@ def pdf(P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz):
 
 
 @numba.njit(cache=True, fastmath=False)
+def delta_prob(P, k, cos_i):
+    """The probability with which sample() returns the unscattered beam (a delta along -wi) at cos_i."""
+    return slab_delta_prob(P[1, k], P[2, k], cos_i)[0]
+
+
+@numba.njit(cache=True, fastmath=False)
 def sample(P, k, wix, wiy, wiz, nx, ny, nz, u0, u1, u2):
     """(wox, woy, woz, weight, delta); see the module docstring."""
     g = P[0, k]
