@@ -250,6 +250,13 @@ class Engine:
         for k, analyzer in enumerate(passes):
             csc, info = camera_scene(sc, cam, step.span, analyzer)
             seed = self.trace_seed(csc.seed)
+            if info.get("hero", 0) > 1:
+                # HERO: where the blocks of lines start, from the seed (frames of different seeds put the blocks'
+                # edges, where their correlated errors step, in different places)
+                src = csc.sources[0]
+                off = ((seed * 0x9E3779B97F4A7C15) >> 17) % info["hero"]
+                csc = M.replace(csc, sources=(M.replace(src, params=M.frozen_params(dict(src.params,
+                                                                                       hero_offset=off))),))
             if cam.get("guide"):
                 if k == 0:
                     guide, gstats = self._camera_guide(csc, cam, info, step)

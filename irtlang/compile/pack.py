@@ -35,7 +35,8 @@ from ..plugins.surfaces import CODES as SURFACE_CODES, REGISTRY as SURFACES
 SK_PLANE, SK_CONIC, SK_SPHERE, SK_ELLIPSOID = (SURFACE_CODES[k] for k in ("PLANE", "CONIC", "SPHERE", "ELLIPSOID"))
 # N_TERMINAL_ROWS: EMITTED, ESCAPED, HALTED, LOST, the ledger's last rows
 from ..kernels.layout import (N_SRC_PAR, N_TERMINAL_ROWS, SP_CORRELATED, SP_DIRECTIONS, SP_ELLIPSE,  # noqa: E402
-                              SP_GUIDE, SP_GUIDE_ROW, SP_GUIDE_T, SP_HERO, SP_PAIRED, SP_PILOT)
+                              SP_GUIDE, SP_GUIDE_ROW, SP_GUIDE_T, SP_HERO, SP_HERO_OFF, SP_PAIRED,
+                              SP_PILOT)
 
 
 class MissingFeature(Exception):
@@ -891,6 +892,8 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
                 out["src_lmap"][i, :nl] = lines_used
                 # HERO K: the ray of traced line q (lmap[q]) carries the lines of its block, lmap[K (q // K) ..]
                 par[SP_HERO] = min(int(p.get("hero") or 0), nl) if int(p.get("hero") or 0) > 1 else 0.0
+                if par[SP_HERO] > 0:
+                    par[SP_HERO_OFF] = int(p.get("hero_offset") or 0) % int(par[SP_HERO])
             guide = p.get("guide")
             if guide is not None:
                 # GUIDE: t x t tiles of the start lattice, each a table of the aim cone's g x g cells (rows (cdf,

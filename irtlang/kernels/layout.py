@@ -77,8 +77,9 @@ SAMPLE_LATTICE, SAMPLE_RANDOM, SAMPLE_STRATIFIED, SAMPLE_SPECTRAL = range(4)
 #: camera whose rays report (stratum + 1/2, tile + 1/2) as their start point, for a DETECTOR ... START tally);
 #: 1 for a camera's paired spectral samples (18: SPECTRAL k, k even, without DIRECTIONS: k / 2 strata of the
 #: bands' cumulative weight, two independent rays in each, consecutive ids); a camera's HERO K (19: each ray
-#: carries the K traced lines of its line's block, irtlang/kernels/trace_kernel.py "hero wavelengths")
-N_SRC_PAR = 20
+#: carries the K traced lines of its line's block, irtlang/kernels/trace_kernel.py "hero wavelengths"), and the
+#: line at which its first full block starts (20: 0 .. K - 1; the blocks before and after it are cut short)
+N_SRC_PAR = 21
 SP_DIRECTIONS = 11
 SP_ELLIPSE = 12
 SP_CORRELATED = 13
@@ -88,6 +89,7 @@ SP_GUIDE_ROW = 16
 SP_PILOT = 17
 SP_PAIRED = 18
 SP_HERO = 19
+SP_HERO_OFF = 20
 
 # ---------------------------------------------------------------------------------------------- tallies
 #: ledger columns

@@ -37,7 +37,7 @@ from .layout import (AP_NONE, C_ABS, C_INC, C_REF, C_SCA, C_TRA, DIR_COLLIMATED,
                      FL_REFLECTED, FL_SCATTERED, FL_TRANSMITTED, IF_ABSORB, IF_FRESNEL, IF_METAL,
                      IF_POLARIZER, IF_REFLECT, IF_RETARDER, IF_SPLIT, PHASE_HG, PHASE_RAYLEIGH,
                      SAMPLE_SPECTRAL, SF_AP, SP_CORRELATED, SP_DIRECTIONS, SP_GUIDE, SP_GUIDE_ROW, SP_GUIDE_T,
-                     SP_HERO, SP_PAIRED, SP_PILOT, SF_BS, SF_CL, SF_HOLE, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
+                     SP_HERO, SP_HERO_OFF, SP_PAIRED, SP_PILOT, SF_BS, SF_CL, SF_HOLE, SF_R, SF_SIZE, SF_TH, SF_TL, SI_APK,
                      SI_AXIS, SI_CLEND, SI_FAM, SI_FNEXT, SI_FOUT, SI_FPREV, SI_KIND, SI_OBJ, SPEC_CLASS_MAP,
                      SPEC_FRACTION_MAP, SPEC_GATE, SPEC_MODEL)
 from .layout import Detectors, Media, Scatter, Sources, Surfaces
@@ -1045,15 +1045,18 @@ def _phase_turn(pk, gg, gam, depol, v0, v1, dx, dy, dz, ex, ey, ez, stq, stu, st
 @numba.njit(cache=True, inline="always")
 def _hero_start(SRC, s, i0, total, line, w, HV):
     """A HERO source ray: its block's lines (HV row H_L), weights a_t = w L_t / L_h (the start's factors other
-    than the line's are common) and ratios s_t = 1.  Returns (K of this block, the hero's place in it)."""
+    than the line's are common) and ratios s_t = 1.  The blocks of K traced lines start at line par[SP_HERO_OFF]
+    (the trace's seed picks it, so that frames of different seeds put the blocks' edges elsewhere); the ones
+    before it and at the end are shorter.  Returns (K of this block, the hero's place in it)."""
     K = int(SRC.par[s, SP_HERO])
+    off = int(SRC.par[s, SP_HERO_OFF])
     ii = i0 if i0 < total else i0 % total
     n = SRC.n[s]
     slot = (ii - SRC.off[s]) // n
     end = SRC.off[s + 1] if s + 1 < SRC.off.shape[0] else total
     nl = (end - SRC.off[s]) // n
-    b0 = (slot // K) * K
-    kb = min(K, nl - b0)
+    b0 = max(0, ((slot + K - off) // K) * K - (K - off))
+    kb = min(((slot + K - off) // K) * K - (K - off) + K, nl) - b0
     ws = SRC.w[s, line]
     for t in range(kb):
         lt = SRC.lmap[s, b0 + t]
