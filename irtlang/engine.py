@@ -257,6 +257,7 @@ class Engine:
                 off = ((seed * 0x9E3779B97F4A7C15) >> 17) % info["hero"]
                 csc = M.replace(csc, sources=(M.replace(src, params=M.frozen_params(dict(src.params,
                                                                                        hero_offset=off))),))
+                info["hero_offset"] = off
             if cam.get("guide"):
                 if k == 0:
                     guide, gstats = self._camera_guide(csc, cam, info, step)
@@ -679,6 +680,7 @@ class Engine:
             o = names.index(next(k for k in names if self.scene.objects[k].name == cam["light"]))
         flux = res.ledger[o, 0]
         se = result_standard_error(res, flux, res.ledger_sq[o])
+        tot_se = None
         if cam is not None and cam.get("hero", 0) > 1 and self.scene.objects[key].name == cam["camera"]:
             # HERO: the light's ledger row is the hero lines' own (each ray books its hero's weight); the lines'
             # combined estimates are the camera's image, per line (its pixels are independent: a source ray
@@ -688,6 +690,14 @@ class Engine:
             q = np.where(qe > 0, qe, 1.0)
             flux = img.reshape(len(flux), -1).sum(axis=1) / q
             se = np.sqrt(var.reshape(len(flux), -1).sum(axis=1)) / q
+            # the total: lines of one block share their rays (correlated errors: their standard errors add, the
+            # bound for any correlation), blocks are independent (their variances add); the blocks are those of
+            # the traced lines (the camera source's line map), from the line the seed chose (_trace_camera)
+            pk = res.packed
+            traced = pk.src_lmap[0][:int(round(res.n_traced / pk.src_n[0]))]
+            K, off = min(cam["hero"], len(traced)), cam.get("hero_offset", 0)
+            st = se[traced]
+            tot_se = float(np.sqrt(sum(st[max(0, b):b + K].sum() ** 2 for b in range(off - K, len(st), K))))
         lines = ["wavelength_nm,flux_W,stderr_W"] + [f"{lam:.6g},{repr(float(f))},{repr(float(e))}"
                                                      for lam, f, e in zip(res.packed.lines_nm, flux, se)]
         shown = lines[:1] + lines[1:8] + (["..."] if len(lines) > 9 else []) + (lines[-1:] if len(lines) > 8 else [])
@@ -697,8 +707,9 @@ class Engine:
                                         step.params["file"] or "")
         tot = float(flux.sum())
         interp.assign("SPECTRUM_FLUX", Quantity(tot, POWER), step.span)
-        interp.assign("SPECTRUM_FLUX_SE", Quantity(total_standard_error(res, flux, res.ledger_sq[o]), POWER),
-                      step.span)
+        if tot_se is None:
+            tot_se = total_standard_error(res, flux, res.ledger_sq[o])
+        interp.assign("SPECTRUM_FLUX_SE", Quantity(tot_se, POWER), step.span)
         if step.params["file"]:
             self._write_text(step.params["file"], "\n".join(lines) + "\n", "spectrum")
 

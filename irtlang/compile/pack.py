@@ -890,7 +890,8 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
                 lines_used = [k for k in range(L) if wl[k] > 0.0]
                 nl = len(lines_used)
                 out["src_lmap"][i, :nl] = lines_used
-                # HERO K: the ray of traced line q (lmap[q]) carries the lines of its block, lmap[K (q // K) ..]
+                # HERO K: the ray of traced line q (lmap[q]) carries the lines of its block of K traced lines, the
+                # blocks starting at traced line hero_offset (trace_kernel._hero_start)
                 par[SP_HERO] = min(int(p.get("hero") or 0), nl) if int(p.get("hero") or 0) > 1 else 0.0
                 if par[SP_HERO] > 0:
                     par[SP_HERO_OFF] = int(p.get("hero_offset") or 0) % int(par[SP_HERO])

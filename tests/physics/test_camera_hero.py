@@ -190,3 +190,22 @@ def test_hero_refuses_what_it_does_not_carry(tmp_path, capsys, how, why):
     assert cli.main(["check", str(d / "s.inr")]) == 2
     err = capsys.readouterr().err
     assert "HERO" in err and why in err, err
+
+
+def test_hero_total_standard_error(tmp_path, capsys):
+    """SPECTRUM_FLUX_SE after a HERO trace: the lines of a block are correlated, so the total's standard error
+    adds them within each block and the blocks' variances across them: it lies between the independent-lines
+    value sqrt(sum se^2) and the fully correlated sum(se), and the total agrees with the closed form within 5 of
+    it."""
+    nl, K = 128, 8
+    A = _albedo(nl)
+    text = LAMBERT.format(nl=nl, seed=4, albedo=_values(A), how=f"DIRECTIONS 4 HERO {K}")
+    text += "PRINT 'total {SPECTRUM_FLUX} {SPECTRUM_FLUX_SE}'\n"
+    capsys.readouterr()
+    v, se = _run(tmp_path, "tot", text)
+    line = [x for x in capsys.readouterr().out.splitlines() if x.startswith("total ")][-1]
+    tot, tse = (float(x) for x in line.split()[1:3])
+    assert abs(tot - v.sum()) < 1e-9 * tot
+    assert math.sqrt((se ** 2).sum()) < tse < se.sum(), (tse, math.sqrt((se ** 2).sum()), se.sum())
+    ex = _lambert_expected(A).sum()
+    assert abs(tot - ex) < 5 * tse + 3e-4 * ex, (tot / ex, tse / ex)
