@@ -500,3 +500,22 @@ def test_degenerate_inputs_never_nan(text):
                     for u2 in us:
                         x, y, z, w, dl = mod.sample(P, k, *wi, *n, u0, u1, u2)
                         assert all(math.isfinite(v) for v in (x, y, z, w)) and w >= 0, (wi, u0, u1, u2, x, y, z, w)
+
+
+@pytest.mark.parametrize("label", [c[0] for c in CASES])
+@pytest.mark.parametrize("theta", [0.0, 60.0])
+def test_delta_prob_is_the_share_of_delta_samples(label, theta):
+    """A model's ``delta_prob`` (hero wavelengths weigh a sampled delta by it: docs/tracer.md) is the probability
+    with which its ``sample`` returns a delta: the share of deltas among 20,000 samples within 5 binomial sigma
+    (and exactly 0 for a model without one, whose delta_prob is the default)."""
+    from irtlang.plugins.bsdfs._common import no_delta
+
+    mod, P, k = case(label)
+    wi, n, _, _ = geometry(theta)
+    out = run_samples(mod, P, k, wi, n, 20000, 31)
+    share = float(out[:, 4].mean())
+    dp = getattr(mod, "delta_prob", no_delta)
+    p = float(dp(P, k, float(wi @ n)))
+    assert abs(share - p) <= 5 * math.sqrt(max(p * (1 - p), 1e-12) / 20000) + 1e-12, (share, p)
+    if mod.KIND not in SLABS:
+        assert share == 0.0 and p == 0.0

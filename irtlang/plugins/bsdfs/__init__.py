@@ -2,7 +2,8 @@
 
 The kernel API every module implements (see lambertian.py, the reference, for the conventions): N_PARAMS,
 pack(params, n_lines) -> (N_PARAMS, L) float64, and the njit functions eval, pdf, sample, albedo,
-direct_transmission.  Shared helpers (albedo tables, the single-scattering slab) live in ``_common``.
+direct_transmission; optional: mueller (default: depolarizing) and delta_prob(P, k, cos_i), the probability with
+which sample returns a delta (a slab's unscattered beam; default 0), which hero wavelengths weigh a delta by.  Shared helpers (albedo tables, the single-scattering slab) live in ``_common``.
 """
 from .. import load_registry
 
