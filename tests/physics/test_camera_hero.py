@@ -20,31 +20,20 @@ from __future__ import annotations
 
 import math
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from irtlang import cli
 
-LAMBERT = """UNITS M
-WAVELENGTHS RANGE (400 NM) (700 NM) {nl}
-SEED {seed}
-MODEL paint LAMBERTIAN {albedo}
-SURFACE
-  SPHERE 0 0 0 100
-OBJECT ball
-  INTERFACE ABSORB
-  SCATTER MODEL paint
-SURFACE
-  PLANE Z 1e5 DISK 0.25
-OBJECT pupil
-  DETECTOR PIXELS 1
-EMITTING SPHERE (1e9 * sin(60)) 0 (1e9 * cos(60)) 1e6 RAYS 1
-FLUX TOTAL ({nl} * 1e18 W)
-LEVEL 4
-HALT 0
-TRACE CAMERA pupil AIM ball {how}
-SPECTRUM OF pupil 'spectrum.csv'
-"""
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_camera_pupil import SCENE as PUPIL_SCENE, _expected as _pupil_expected  # noqa: E402
+
+# test_camera_pupil.py's Lambert sphere, its albedo given per line
+LAMBERT = PUPIL_SCENE.replace("MODEL paint LAMBERTIAN 0.6", "MODEL paint LAMBERTIAN {albedo}")
+assert "{albedo}" in LAMBERT
 
 PLANET = """UNITS M
 WAVELENGTHS RANGE (400 NM) (700 NM) {nl}
@@ -103,10 +92,8 @@ def _run(tmp_path, name, text):
 
 
 def _lambert_expected(albedo):
-    a = math.radians(60.0)
-    phi = (math.sin(a) + (math.pi - a) * math.cos(a)) / math.pi
-    E = 1e18 / (4 * math.pi * 1e9 ** 2)
-    return (2.0 / 3.0) * albedo * E * (100.0 / 1e5) ** 2 * phi * math.pi * 0.25 ** 2
+    """test_camera_pupil's closed form (albedo 0.6) for the per-line albedo: the flux is linear in it."""
+    return _pupil_expected() * albedo / 0.6
 
 
 def _block_var(se, K):
@@ -161,8 +148,6 @@ def test_hero_agrees_with_one_line_per_ray_on_a_small_planet(tmp_path):
     square within 5 sigma of 1 (the one-line trace's errors, independent from line to line, carry most of the
     difference's variance: sigma = sqrt(2 / lines), widened by the hero's share); the totals within 5 sigma.
     And the point of it: the same rays give each line about K times less variance."""
-    from pathlib import Path
-
     nl, K = 192, 8
     m = str(Path(__file__).resolve().parents[2] / "examples_scripts" / "data" / "half_cloudy.npy")
     h, hs = _run(tmp_path, "hero", _planet(nl, 5, f"DIRECTIONS 8 HERO {K}", m))
