@@ -330,7 +330,11 @@ class Engine:
                if info["spectral"] else f"{info['rays_per_pixel_line']} per pixel and line, {info['lines']} lines")
         if cam.get("stokes"):
             how += "; six traces behind ideal analyzers: I, Q, U, V"
-        if info.get("hero", 0) > 1:
+        if info.get("hero", 0) > 1 and info["spectral"]:
+            strata = info["spectral"] // 2 if info.get("paired") else info["spectral"]
+            how += (f"; each ray carries a line from each of {min(info['hero'], strata)} strata of the bands' "
+                    "weights (HERO)")
+        elif info.get("hero", 0) > 1:
             how += f"; each ray carries the {min(info['hero'], info['lines'])} lines of its block (HERO)"
         self.out(f"TRACE CAMERA {info['camera']}: {res.n_traced:,} camera rays ({how}, "
                  f"pixels {i0}..{i1 - 1} x {j0}..{j1 - 1}); "
@@ -681,7 +685,8 @@ class Engine:
         flux = res.ledger[o, 0]
         se = result_standard_error(res, flux, res.ledger_sq[o])
         tot_se = None
-        if cam is not None and cam.get("hero", 0) > 1 and self.scene.objects[key].name == cam["camera"]:
+        if (cam is not None and cam.get("hero", 0) > 1 and not cam.get("spectral")
+                and self.scene.objects[key].name == cam["camera"]):
             # HERO: the light's ledger row is the hero lines' own (each ray books its hero's weight); the lines'
             # combined estimates are the camera's image, per line (its pixels are independent: a source ray
             # deposits in its start pixel only), without the QE the image applies

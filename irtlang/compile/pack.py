@@ -886,6 +886,11 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
                 out["src_random"][i] = SAMPLE_SPECTRAL
                 wl = np.where(pmf > 0, wl / np.where(pmf > 0, pmf, 1.0) / K, 0.0)
                 nl = K
+                # HERO K (paired): each ray carries one line from each stratum of its block of K strata
+                # (trace_kernel._hero_start); the blocks interleave, each spanning the spectrum
+                strata = K // 2 if p.get("paired") else K
+                hk = int(p.get("hero") or 0)
+                par[SP_HERO] = min(hk, strata) if hk > 1 and strata > 1 else 0.0
             else:
                 lines_used = [k for k in range(L) if wl[k] > 0.0]
                 nl = len(lines_used)

@@ -461,6 +461,22 @@ def _turn(dx, dy, dz, mu, u):
 
 
 @numba.njit(cache=True, inline="always")
+def _spectral_line(SRC, s, u):
+    """A camera's spectral sample: the line whose interval of the bands' cumulative weight holds u (rows (cdf,
+    line) in SRC.pts, binary search)."""
+    r0 = SRC.pts_off[s]
+    lo = 0
+    hi = int(SRC.par[s, 9]) - 1
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if SRC.pts[r0 + mid, 0] < u:
+            lo = mid + 1
+        else:
+            hi = mid
+    return int(SRC.pts[r0 + lo, 1])
+
+
+@numba.njit(cache=True, inline="always")
 def _gen(i, total, seed, SRC, o_bc, o_br, src_dw):
     """Ray i: (source, line, phx, phy, phz, plx, ply, plz, dx, dy, dz, w, sx, sy, pm, key); (sx, sy) is the
     start point in the source's own frame (the pupil coordinates of a GRID); pm is 0, or for a camera with
@@ -504,16 +520,7 @@ def _gen(i, total, seed, SRC, o_bc, o_br, src_dw):
             u = (slot + ul) / (0.5 * SRC.par[s, 10])
         else:
             u = (slot + ul) / SRC.par[s, 10]
-        r0 = SRC.pts_off[s]
-        lo = 0
-        hi = int(SRC.par[s, 9]) - 1
-        while lo < hi:
-            mid = (lo + hi) >> 1
-            if SRC.pts[r0 + mid, 0] < u:
-                lo = mid + 1
-            else:
-                hi = mid
-        line = int(SRC.pts[r0 + lo, 1])
+        line = _spectral_line(SRC, s, u)
     else:
         line = SRC.lmap[s, slot]     # the source's traced lines (all of them, or a camera's band lines)
     w = SRC.w[s, line]
@@ -1043,15 +1050,45 @@ def _phase_turn(pk, gg, gam, depol, v0, v1, dx, dy, dz, ex, ey, ez, stq, stu, st
 # weight, which is the same whichever line is the hero, so they drop out of the density ratios.  The hero's own
 # scalar weight w still books the ledger, as a one-line trace would.
 @numba.njit(cache=True, inline="always")
-def _hero_start(SRC, s, i0, total, line, w, HV):
-    """A HERO source ray: its block's lines (HV row H_L), weights a_t = w L_t / L_h (the start's factors other
-    than the line's are common) and ratios s_t = 1.  The blocks of K traced lines start at line par[SP_HERO_OFF]
-    (the trace's seed picks it, so that frames of different seeds put the blocks' edges elsewhere); the ones
-    before it and at the end are shorter.  Returns (K of this block, the hero's place in it)."""
+def _hero_start(SRC, s, i0, total, seed, line, w, HV):
+    """A HERO source ray: its block's lines (HV row H_L), weights a_t = w W_t / W_h (W the source's weight per
+    line; the start's other factors are common) and ratios s_t = 1.  Returns (K of this block, the hero's
+    place in it).
+    Every line traced (a spectrum): the blocks of K traced lines start at line par[SP_HERO_OFF] (the trace's
+    seed picks it, so that frames of different seeds put the blocks' edges elsewhere); the ones before it and
+    at the end are shorter.
+    SPECTRAL (band images, paired): the ray of stratum k (of the S strata of the bands' cumulative weight)
+    carries one line from each stratum of k's block, all drawn with the ray's own uniform (u = (k' + ul) / S
+    for stratum k', _gen's draw for k' = k).  The blocks interleave, so that each spans the whole spectrum:
+    with nb = ceil(S / K) blocks, block r holds strata r, r + nb, r + 2 nb, ... (K or fewer).  Each stratum's
+    line is a draw from that stratum, and the hero is uniform over the block (every stratum has the same
+    rays), so the balance heuristic over the block's lines is unbiased with the same per-line weights as one
+    line per ray (docs/tracer.md)."""
     K = int(SRC.par[s, SP_HERO])
-    off = int(SRC.par[s, SP_HERO_OFF])
     ii = i0 if i0 < total else i0 % total
     n = SRC.n[s]
+    if F_CAMERA and SRC.random[s] == SAMPLE_SPECTRAL:
+        j = ii - SRC.off[s]
+        ns = SRC.par[s, 10]
+        if SRC.par[s, SP_PAIRED] > 0.0:
+            j = j >> 1
+            ns = 0.5 * ns
+        k = j // n
+        ul, _ul = uniform2(seed, i0, 0, 2)
+        S = int(ns)
+        nb = (S + K - 1) // K
+        r = k % nb
+        kb = (S - r + nb - 1) // nb
+        ws = SRC.w[s, line]
+        for t in range(kb):
+            kt = r + t * nb
+            lt = line if kt == k else _spectral_line(SRC, s, (kt + ul) / ns)
+            HV[H_L, t] = lt
+            HV[H_A, t] = w * SRC.w[s, lt] / ws if ws > 0.0 else 0.0
+            HV[H_S, t] = 1.0
+            HV[H_ACC, t] = 0.0
+        return kb, k // nb
+    off = int(SRC.par[s, SP_HERO_OFF])
     slot = (ii - SRC.off[s]) // n
     end = SRC.off[s + 1] if s + 1 < SRC.off.shape[0] else total
     nl = (end - SRC.off[s]) // n
@@ -1904,7 +1941,7 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
             hix = 0
             hiy = 0
             if F_HERO and src_par[s, SP_HERO] > 1.0:
-                HK, hi = _hero_start(SRC, s, first + ii, total, line, w, HV)
+                HK, hi = _hero_start(SRC, s, first + ii, total, seed, line, w, HV)
             if F_HERO:
                 stack[POOL, 2] = HK
                 stack[POOL, 3] = hi
@@ -2188,8 +2225,9 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                 _close_source_ray(inc_sq, c, line, acc, touched, nt)
             if ndep - dep0 > 1 and ndep <= cap:
                 ndep = _merge_deposits(dep_idx, dep_w, dep_d, c, dep0, ndep)
-                if F_CAMERA and pm == 2:
+                if F_CAMERA and (pm == 2 or HK > 0):
                     # one group: reduce_batch squares the pair's difference per image, summed over its lines
+                    # (a HERO source ray without a pair: its own lines' sum per image, they share its path)
                     for q in range(dep0 + 1, ndep):
                         dep_idx[c, q] = -dep_idx[c, q] - 1
         dep_n[c] = ndep if ndep <= cap else -1

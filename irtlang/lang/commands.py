@@ -820,7 +820,9 @@ def _guide_cells(x):
                                                          "numbers: a spectrum's shape is sharper than each line"),
                             Clause("HERO", (V("hero", integer=True, check=_hero_lines),),
                                    doc="hero wavelengths: each camera ray carries the K traced lines of its line's "
-                                       "block (K consecutive lines), every line gaining from every ray (with DIRECTIONS)"),
+                                       "block (K consecutive lines; with DIRECTIONS), or with SPECTRAL k a "
+                                       "line from each of K strata of the bands' weights, every line gaining from "
+                                       "every ray"),
                             Clause("GUIDE", (V("guide", integer=True, check=_guide_cells),),
                                    doc="draw camera rays' directions from g x g cells of the aim cone, as a pilot "
                                        "trace through the instrument found them leaving it (unbiased; 0: off)"),
@@ -903,19 +905,25 @@ def _trace(it, b, st):
                         "DIRECTIONS m stratifies the aim cone for spectra; GUIDE g draws band images' rays where they "
                         "leave the instrument: give one of them")
         if b.get("hero", 0) > 1:
-            # hero wavelengths (irtlang/kernels/trace_kernel.py, docs/tracer.md "Hero wavelengths"), built for the
-            # spectra of a one-pixel camera: every line traced into its own image, pairs for the errors
-            why = ("it needs DIRECTIONS m (its standard errors come from the pairs)" if "directions" not in b else
-                   "SPECTRAL draws one line per ray" if "spectral" in b else
-                   "its lines must be traced into their own images (a DETECTOR without FILTERS)" if filters else
+            # hero wavelengths (irtlang/kernels/trace_kernel.py, docs/tracer.md "Hero wavelengths"): a spectrum
+            # (every line traced into its own image, DIRECTIONS pairs for the errors) or band images (SPECTRAL k:
+            # each ray carries a line of each stratum of its block; the errors from the pairs of each stratum
+            # with k even, else from the rays, each ray's lines summed per image before squaring)
+            why = ("with SPECTRAL, the spectral strata give the errors: no DIRECTIONS"
+                   if "spectral" in b and "directions" in b else
+                   "it needs DIRECTIONS m (its standard errors come from the pairs)"
+                   if "directions" not in b and "spectral" not in b else
+                   "its lines must be traced into their own images (a DETECTOR without FILTERS), or drawn with "
+                   "SPECTRAL k" if filters and "spectral" not in b else
                    "CORRELATED shares the random numbers it takes apart" if "correlated" in b else
                    "STOKES and POLARIZATION carry a Stokes vector per ray, not per line" if s.polarization else
                    "a VOLUME medium's free paths are not sampled per line" if any(
                        (m.params or {}).get("volume") for m in s.media.values()) else None)
             if why is not None:
                 raise error(b.span_of("hero"), f"TRACE CAMERA ... HERO: {why}",
-                            "HERO K is for spectra: TRACE CAMERA pupil AIM obj DIRECTIONS m HERO K, the camera's "
-                            "DETECTOR without FILTERS, no SPECTRAL, CORRELATED, POLARIZATION or VOLUME media",
+                            "HERO K: for a spectrum TRACE CAMERA pupil AIM obj DIRECTIONS m HERO K (a DETECTOR "
+                            "without FILTERS), for band images TRACE CAMERA fpa AIM obj SPECTRAL k HERO K; "
+                            "no CORRELATED, POLARIZATION or VOLUME media",
                             notes=[(cam.span, "the camera object")])
         only = None
         if "cam_filter" in b:

@@ -270,7 +270,7 @@ def guide_pilot(csc: M.Scene, params: dict, info: dict, span: Span, target: tupl
     objs[cname] = catcher
     resp = [max(r) for r in p["response"]]
     line = max(range(L), key=lambda k: resp[k])
-    p.update(nx=t, ny=t, sub=GUIDE_PILOT_SUB, spectral=0, directions=g, correlated=False, paired=False,
+    p.update(nx=t, ny=t, sub=GUIDE_PILOT_SUB, spectral=0, directions=g, correlated=False, paired=False, hero=0,
              response=tuple((1.0,) if k == line else (0.0,) for k in range(L)), guide={"g": g, "t": t, "pilot": True})
     pilot = M.replace(csc, objects=M.frozen_params(objs), groups=groups,
                       sources=(M.replace(src, params=M.frozen_params(p)),))
