@@ -24,17 +24,26 @@ _FLAGS = {"conic": "F_CONIC", "quadric": "F_QUADRIC", "mesh": "F_MESH", "refract
           "scatter": "F_SCATTER", "maps": "F_MAPS", "volume": "F_VOLUME", "importance": "F_IMPORTANCE",
           "shells": "F_SHELLS", "polar": "F_POLAR",
           "camera": "F_CAMERA"}
-_FUNCS = ("sample", "eval", "albedo", "direct", "mueller", "pdf", "delta")
+_FUNCS = ("sample", "eval", "albedo", "direct", "mueller", "pdf", "delta", "parts")
 _SIGS = {"sample": "P, k, wix, wiy, wiz, nx, ny, nz, u0, u1, u2",
          "eval": "P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz", "albedo": "P, k, cos_i", "direct": "P, k, cos_i",
          "mueller": "P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz, q, u, v, ex, ey, ez",
-         "pdf": "P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz", "delta": "P, k, cos_i"}
+         "pdf": "P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz", "delta": "P, k, cos_i", "parts": "P, k, cos_i"}
 _NAMES = {"sample": "sample", "eval": "eval", "albedo": "albedo", "direct": "direct_transmission",
-          "mueller": "mueller", "pdf": "pdf", "delta": "delta_prob"}
-# optional in a plugin: a Mueller matrix (default: depolarizing) and the probability of a sampled delta (the
-# unscattered beam of a slab; default: none)
+          "mueller": "mueller", "pdf": "pdf", "delta": "delta_prob", "parts": "albedo_parts"}
+# optional in a plugin: a Mueller matrix (default: depolarizing), the probability of a sampled delta (the
+# unscattered beam of a slab; default: none) and albedo_parts (albedo, direct_transmission and delta_prob in one
+# call; default: the three called apart, _COMPOSED_PARTS)
 _DEFAULTS = {"mueller": ("irtlang.plugins.bsdfs._common", "depolarize"),
              "delta": ("irtlang.plugins.bsdfs._common", "no_delta")}
+
+
+_COMPOSED_PARTS = """
+
+@numba.njit(cache=True)
+def _parts_{j}(P, k, cos_i):
+    a_, b_ = _albedo_{j}(P, k, cos_i)
+    return a_, b_, _direct_{j}(P, k, cos_i), _delta_{j}(P, k, cos_i)"""
 
 
 def bsdf_dispatch(kinds) -> str:
@@ -43,13 +52,17 @@ def bsdf_dispatch(kinds) -> str:
 
     kinds = list(kinds) or ["LAMBERTIAN"]
     lines = []
+    composed = []
     for j, kd in enumerate(kinds):
         mod = REGISTRY[kd].__name__
         for f in _FUNCS:
-            if f in _DEFAULTS and not hasattr(REGISTRY[kd], _NAMES[f]):
+            if f == "parts" and not hasattr(REGISTRY[kd], _NAMES[f]):
+                composed.append(_COMPOSED_PARTS.format(j=j))
+            elif f in _DEFAULTS and not hasattr(REGISTRY[kd], _NAMES[f]):
                 lines.append(f"from {_DEFAULTS[f][0]} import {_DEFAULTS[f][1]} as _{f}_{j}")
             else:
                 lines.append(f"from {mod} import {_NAMES[f]} as _{f}_{j}")
+    lines += composed
     for f in _FUNCS:
         lines += ["", "", "@numba.njit(cache=True)", f"def _bsdf_{f}(kind, {_SIGS[f]}):"]
         for j in range(len(kinds)):

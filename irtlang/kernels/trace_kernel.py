@@ -80,11 +80,12 @@ EPS_SELF = 1e-9
 # HERO K (hero wavelengths): the rows of a chunk's scratch array HV (rows x K): per line t of the ray's block, its
 # weight a_t = f_t / p_hero and density ratio s_t = p_t / p_hero (the ray's state, on the stack too); a hit's R,
 # T, diffuse, slab keep and Fresnel R per line; the base and candidate weights of rays toward a target; the
-# source ray's accumulated deposit per line; the block's lines; scratch
+# source ray's accumulated deposit per line; the block's lines; scratch; a slab's direct beam and delta probability
+# at the hit (-1: not a slab's; _hero_shares)
 # (the rows after the stack's POOL row: Numba cannot inline a helper of more than 30 arguments, so the hero state
 # rides in the stack, with K and the hero's place in the POOL row's columns 2 and 3)
-H_A, H_S, H_R, H_T, H_D, H_K, H_RF, H_B, H_C, H_ACC, H_L, H_F, H_P = range(SMAX + 1, SMAX + 14)
-N_HERO_ROWS = 13
+H_A, H_S, H_R, H_T, H_D, H_K, H_RF, H_B, H_C, H_ACC, H_L, H_F, H_P, H_E, H_Q = range(SMAX + 1, SMAX + 16)
+N_HERO_ROWS = 15
 SIDE_COS = 1e-7     # _nearest: a departure from a nested shell closer than this (cosine) to its tangent plane is
                     # grazing: its side is not trusted (its other root on that shell is then within ~2 R 1e-7)
 TWO_PI = 2.0 * math.pi
@@ -695,6 +696,12 @@ from irtlang.plugins.bsdfs._common import no_delta as _delta_0
 
 
 @numba.njit(cache=True)
+def _parts_0(P, k, cos_i):
+    a_, b_ = _albedo_0(P, k, cos_i)
+    return a_, b_, _direct_0(P, k, cos_i), _delta_0(P, k, cos_i)
+
+
+@numba.njit(cache=True)
 def _bsdf_sample(kind, P, k, wix, wiy, wiz, nx, ny, nz, u0, u1, u2):
     return _sample_0(P, k, wix, wiy, wiz, nx, ny, nz, u0, u1, u2)
 
@@ -727,6 +734,11 @@ def _bsdf_pdf(kind, P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz):
 @numba.njit(cache=True)
 def _bsdf_delta(kind, P, k, cos_i):
     return _delta_0(P, k, cos_i)
+
+
+@numba.njit(cache=True)
+def _bsdf_parts(kind, P, k, cos_i):
+    return _parts_0(P, k, cos_i)
 # ---- end of bsdf dispatch ----
 
 # ---------------------------------------------------------------------------------------------- the trace
@@ -1140,8 +1152,22 @@ def _hero_shares(HV, K, SC, MD, itf, cc, ci, gz, fm_nee, specs, ll, sc, cos_i, n
             T = 0.0
         D = 0.0
         kp = 1.0
+        HV[H_E, t] = -1.0
         if F_MAPS and fm_nee:
             R, T = _nee_map_mix(SC, MD, scf, scn, ll, lt, cos_i, itf, R, T, Rf)
+        elif F_SCATTER and sc >= 0 and SC.mod_slab[sc] == 1 and not nee:
+            # _model_share's slab, with the direct beam and the delta's probability from the same call (the
+            # plugin's albedo_parts), kept for _hero_diffuse
+            Rb, Tb, e, pd = _bsdf_parts(SC.mod_kind[sc], SC.mod_P[sc].T, lt, cos_i)
+            R = 0.0
+            T = 0.0
+            D = Rb + Tb
+            if F_REFRACT and it == IF_FRESNEL and MD.n[m1, lt] != MD.n[m2, lt]:
+                R = Rf
+                D *= 1.0 - Rf
+                kp = 1.0 - Rf
+            HV[H_E, t] = e
+            HV[H_Q, t] = pd
         elif F_SCATTER and sc >= 0:
             R, T, D, kp, _mk, _P = _model_share(SC, MD, sc, lt, cos_i, itf, R, T, Rf, nee)
         HV[H_R, t] = R
@@ -1179,7 +1205,10 @@ def _hero_diffuse(HV, K, hi, mk, Pm, wi, wo, nv, cos_i, delta):
         f = 0.0
         p = 0.0
         if tt > 0.0 and HV[H_D, t] > 0.0:
-            if delta:
+            if delta and HV[H_E, t] >= 0.0:     # a slab's, from _hero_shares
+                f = HV[H_K, t] * HV[H_E, t]
+                p = HV[H_D, t] / tt * HV[H_Q, t]
+            elif delta:
                 f = HV[H_K, t] * _bsdf_direct(mk, Pm, lt, cos_i)
                 p = HV[H_D, t] / tt * _bsdf_delta(mk, Pm, lt, cos_i)
             else:

@@ -519,3 +519,23 @@ def test_delta_prob_is_the_share_of_delta_samples(label, theta):
     assert abs(share - p) <= 5 * math.sqrt(max(p * (1 - p), 1e-12) / 20000) + 1e-12, (share, p)
     if mod.KIND not in SLABS:
         assert share == 0.0 and p == 0.0
+
+
+@pytest.mark.parametrize("label", [c[0] for c in CASES])
+def test_albedo_parts_are_the_three_calls_bit_for_bit(label):
+    """A model's optional ``albedo_parts`` (hero wavelengths call it per line at every slab crossing) returns
+    (albedo's R, albedo's T, direct_transmission, delta_prob) exactly, at cosines down to grazing and below
+    MU_MIN (a regression guard on an optimization, not a physics oracle: the physics of each part is tested
+    above).  The kernel's default for a model without it calls the three."""
+    from irtlang.plugins.bsdfs._common import no_delta
+
+    mod, P, k = case(label)
+    if not hasattr(mod, "albedo_parts"):
+        assert mod.KIND not in ("RAYLEIGH", "HG", "EDDINGTON"), "the slabs carry albedo_parts"
+        return
+    dp = getattr(mod, "delta_prob", no_delta)
+    for ci in (1.0, 0.9, 0.5, 0.13, 1e-3, 1e-6, 1e-9, 0.0):
+        for kk in range(P.shape[1]):
+            got = mod.albedo_parts(P, kk, ci)
+            want = (*mod.albedo(P, kk, ci), mod.direct_transmission(P, kk, ci), dp(P, kk, ci))
+            assert got == want, (ci, kk, got, want)

@@ -66,6 +66,27 @@ def table_interp(P, k, row0, nt, t0, mu):
     return l0 * P[row0 + j, k] + l1 * P[row0 + j + 1, k] + l2 * P[row0 + j + 2, k] + l3 * P[row0 + j + 3, k]
 
 
+@numba.njit(cache=True, fastmath=False)
+def table_interp2(P, k, row_a, row_b, nt, t0, mu):
+    """table_interp of two tables of column k at one cos_i = mu (the same nodes): the weights once, both values
+    bit for bit as two table_interp calls give them."""
+    t = math.sqrt(min(1.0, max(0.0, mu)))
+    x = (t - t0) / (1.0 - t0) * (nt - 1)
+    if x <= 0.0:
+        return P[row_a, k], P[row_b, k]
+    if x >= nt - 1:
+        return P[row_a + nt - 1, k], P[row_b + nt - 1, k]
+    i = int(x)
+    j = min(max(i - 1, 0), nt - 4)
+    s = x - j
+    l0 = -(s - 1.0) * (s - 2.0) * (s - 3.0) / 6.0
+    l1 = s * (s - 2.0) * (s - 3.0) / 2.0
+    l2 = -s * (s - 1.0) * (s - 3.0) / 2.0
+    l3 = s * (s - 1.0) * (s - 2.0) / 6.0
+    return (l0 * P[row_a + j, k] + l1 * P[row_a + j + 1, k] + l2 * P[row_a + j + 2, k] + l3 * P[row_a + j + 3, k],
+            l0 * P[row_b + j, k] + l1 * P[row_b + j + 1, k] + l2 * P[row_b + j + 2, k] + l3 * P[row_b + j + 3, k])
+
+
 # ---------------------------------------------------------------- slab geometry
 @numba.njit(cache=True, fastmath=False)
 def divided_exp(tau, m1, m2):
@@ -116,6 +137,21 @@ def slab_delta_prob(tau, w, cos_i):
     if norm <= 0.0:
         return 0.0, 0.0, 0.0, om
     return e / norm, w * om / norm, norm, om
+
+
+@numba.njit(cache=True, fastmath=False)
+def slab_albedo_parts(P, k, row_r, row_t, nt, t0, tau, w, cos_i):
+    """A single-scattering slab's ``albedo_parts`` (its R and T tables in rows row_r.. and row_t.., optical depth
+    tau, single-scattering albedo w): (R, T + e, e, p_delta) with e = exp(-tau/cos_i), each bit for bit as albedo,
+    direct_transmission (slab_direct) and delta_prob (slab_delta_prob) give it, the exponential once."""
+    R, T = table_interp2(P, k, row_r, row_t, nt, t0, cos_i)
+    if tau <= 0.0:
+        return max(R, 0.0), max(T, 0.0) + 1.0, 1.0, 1.0
+    x = tau / max(cos_i, MU_MIN)
+    e = math.exp(-x)
+    om = -math.expm1(-x)
+    norm = e + w * om
+    return max(R, 0.0), max(T, 0.0) + e, e, (e / norm if norm > 0.0 else 0.0)
 
 
 # ---------------------------------------------------------------- slab albedo (numpy, for pack())

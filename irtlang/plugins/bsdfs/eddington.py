@@ -194,6 +194,20 @@ def albedo(P, k, cos_i):
 
 
 @numba.njit(cache=True, fastmath=False)
+def albedo_parts(P, k, cos_i):
+    """(albedo's R and T, direct_transmission, delta_prob) in one call, each bit for bit the same: the layer's
+    two-stream solution once (hero wavelengths evaluate them per line at every crossing)."""
+    R, T = _rt(P, k, cos_i)
+    e = _direct(P, k, cos_i)
+    if cos_i >= MU_MIN:
+        tot = R + T + e
+    else:
+        Rd, Td = _rt(P, k, MU_MIN)
+        tot = Rd + Td + e
+    return R, T + e, e, (e / tot if tot > 0.0 else 0.0)
+
+
+@numba.njit(cache=True, fastmath=False)
 def direct_transmission(P, k, cos_i):
     """exp(-tau'/cos_i): the direct beam (with the delta-scaled forward peak), along -wi."""
     return _direct(P, k, cos_i)

@@ -43,7 +43,7 @@ import numpy as np
 from ...lang.spec import Clause, Form, PL, V, nonneg, positive, unit_interval
 from ...kernels.sampling import hg_sample
 from ._common import (slab_scatter, INV_4PI, INV_PI, MU_MIN, slab_albedo_lines, slab_delta_prob, slab_direct, slab_geometry,
-                      table_interp, table_mu_nodes)
+                      slab_albedo_parts, table_interp, table_interp2, table_mu_nodes)
 
 MAX_ORDERS = 32
 
@@ -223,9 +223,15 @@ def sample(P, k, wix, wiy, wiz, nx, ny, nz, u0, u1, u2):
 @numba.njit(cache=True, fastmath=False)
 def albedo(P, k, cos_i):
     """(R, T): R the scattered reflectance; T the scattered transmittance plus exp(-tau/cos_i)."""
-    R = table_interp(P, k, ROW_R, NT, T0, cos_i)
-    T = table_interp(P, k, ROW_T, NT, T0, cos_i)
+    R, T = table_interp2(P, k, ROW_R, ROW_T, NT, T0, cos_i)
     return max(R, 0.0), max(T, 0.0) + slab_direct(P[1, k], cos_i)
+
+
+@numba.njit(cache=True, fastmath=False)
+def albedo_parts(P, k, cos_i):
+    """(albedo's R and T, direct_transmission, delta_prob) in one call, each bit for bit the same (hero
+    wavelengths evaluate them per line at every crossing of a slab)."""
+    return slab_albedo_parts(P, k, ROW_R, ROW_T, NT, T0, P[1, k], P[2, k], cos_i)
 
 
 @numba.njit(cache=True, fastmath=False)

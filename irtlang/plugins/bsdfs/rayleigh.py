@@ -45,7 +45,7 @@ import numpy as np
 from ...kernels.polar import perpendicular, rayleigh_mueller, rotate, scatter_stokes
 from ...lang.spec import Clause, Form, PL, V, nonneg, unit_interval
 from ._common import (slab_scatter, INV_4PI, INV_PI, MU_MIN, slab_albedo_lines, slab_delta_prob, slab_direct, slab_geometry,
-                      table_interp, table_mu_nodes)
+                      slab_albedo_parts, table_interp, table_interp2, table_mu_nodes)
 
 KIND = "RAYLEIGH"
 FORM = Form((), (Clause("TAU", (PL("tau", check=nonneg),), required=True),
@@ -171,9 +171,15 @@ def sample(P, k, wix, wiy, wiz, nx, ny, nz, u0, u1, u2):
 @numba.njit(cache=True, fastmath=False)
 def albedo(P, k, cos_i):
     """(R, T): R the scattered reflectance; T the scattered transmittance plus exp(-tau/cos_i)."""
-    R = table_interp(P, k, ROW_R, NT, T0, cos_i)
-    T = table_interp(P, k, ROW_T, NT, T0, cos_i)
+    R, T = table_interp2(P, k, ROW_R, ROW_T, NT, T0, cos_i)
     return max(R, 0.0), max(T, 0.0) + slab_direct(P[0, k], cos_i)
+
+
+@numba.njit(cache=True, fastmath=False)
+def albedo_parts(P, k, cos_i):
+    """(albedo's R and T, direct_transmission, delta_prob) in one call, each bit for bit the same (hero
+    wavelengths evaluate them per line at every crossing of a slab)."""
+    return slab_albedo_parts(P, k, ROW_R, ROW_T, NT, T0, P[0, k], P[1, k], cos_i)
 
 
 @numba.njit(cache=True, fastmath=False)
