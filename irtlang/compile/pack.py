@@ -886,8 +886,8 @@ def _pack_sources(scene: M.Scene, lines, widths, obj_index) -> dict:
                 out["src_random"][i] = SAMPLE_SPECTRAL
                 wl = np.where(pmf > 0, wl / np.where(pmf > 0, pmf, 1.0) / K, 0.0)
                 nl = K
-                # HERO K (paired): each ray carries one line from each stratum of its block of K strata
-                # (trace_kernel._hero_start); the blocks interleave, each spanning the spectrum
+                # HERO K: each ray carries one line from each stratum of its block of K strata (K strata, or
+                # K / 2 paired; trace_kernel._hero_start); the blocks interleave, each spanning the spectrum
                 strata = K // 2 if p.get("paired") else K
                 hk = int(p.get("hero") or 0)
                 par[SP_HERO] = min(hk, strata) if hk > 1 and strata > 1 else 0.0

@@ -1069,8 +1069,8 @@ def _hero_start(SRC, s, i0, total, seed, line, w, HV):
     Every line traced (a spectrum): the blocks of K traced lines start at line par[SP_HERO_OFF] (the trace's
     seed picks it, so that frames of different seeds put the blocks' edges elsewhere); the ones before it and
     at the end are shorter.
-    SPECTRAL (band images, paired): the ray of stratum k (of the S strata of the bands' cumulative weight)
-    carries one line from each stratum of k's block, all drawn with the ray's own uniform (u = (k' + ul) / S
+    SPECTRAL n (band images): the ray of stratum k (of the S strata of the bands' cumulative weight: n, or n / 2
+    paired) carries one line from each stratum of k's block, all drawn with the ray's own uniform (u = (k' + ul) / S
     for stratum k', _gen's draw for k' = k).  The blocks interleave, so that each spans the whole spectrum:
     with nb = ceil(S / K) blocks, block r holds strata r, r + nb, r + 2 nb, ... (K or fewer).  Each stratum's
     line is a draw from that stratum, and the hero is uniform over the block (every stratum has the same

@@ -43,7 +43,7 @@ import numpy as np
 from ...lang.spec import Clause, Form, PL, V, nonneg, positive, unit_interval
 from ...kernels.sampling import hg_sample
 from ._common import (slab_scatter, INV_4PI, INV_PI, MU_MIN, slab_albedo_lines, slab_delta_prob, slab_direct, slab_geometry,
-                      slab_albedo_parts, table_interp, table_interp2, table_mu_nodes)
+                      slab_albedo_parts, table_interp2, table_mu_nodes)
 
 MAX_ORDERS = 32
 

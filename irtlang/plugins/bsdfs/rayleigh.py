@@ -45,7 +45,7 @@ import numpy as np
 from ...kernels.polar import perpendicular, rayleigh_mueller, rotate, scatter_stokes
 from ...lang.spec import Clause, Form, PL, V, nonneg, unit_interval
 from ._common import (slab_scatter, INV_4PI, INV_PI, MU_MIN, slab_albedo_lines, slab_delta_prob, slab_direct, slab_geometry,
-                      slab_albedo_parts, table_interp, table_interp2, table_mu_nodes)
+                      slab_albedo_parts, table_interp2, table_mu_nodes)
 
 KIND = "RAYLEIGH"
 FORM = Form((), (Clause("TAU", (PL("tau", check=nonneg),), required=True),
