@@ -330,10 +330,11 @@ class Engine:
                if info["spectral"] else f"{info['rays_per_pixel_line']} per pixel and line, {info['lines']} lines")
         if cam.get("stokes"):
             how += "; six traces behind ideal analyzers: I, Q, U, V"
+        strata = info["spectral"] // 2 if info.get("paired") else info["spectral"]
         if info.get("hero", 0) > 1 and info["spectral"]:
-            strata = info["spectral"] // 2 if info.get("paired") else info["spectral"]
+            # (one stratum: nothing to carry, one line per ray; pack leaves HERO off)
             how += (f"; each ray carries a line from each of {min(info['hero'], strata)} strata of the bands' "
-                    "weights (HERO)")
+                    "weights (HERO)" if strata > 1 else "; one spectral stratum: HERO has nothing to add")
         elif info.get("hero", 0) > 1:
             how += f"; each ray carries the {min(info['hero'], info['lines'])} lines of its block (HERO)"
         self.out(f"TRACE CAMERA {info['camera']}: {res.n_traced:,} camera rays ({how}, "
