@@ -35,32 +35,36 @@ from test_camera_pupil import SCENE as PUPIL_SCENE, _expected as _pupil_expected
 LAMBERT = PUPIL_SCENE.replace("MODEL paint LAMBERTIAN 0.6", "MODEL paint LAMBERTIAN {albedo}")
 assert "{albedo}" in LAMBERT
 
-PLANET = """UNITS M
-WAVELENGTHS RANGE (400 NM) (700 NM) {nl}
-SEED {seed}
-MAP cloudy LATLON '{map}'
+#: the small planet (centre 0 0 {z}): a Lambertian ground of per-line albedo under a fraction map and a glint
+#: ocean, a cloud deck over the map, an atmosphere shell that is a Rayleigh slab on a dispersing index step
+#: (test_camera_hero_images.py images it)
+PLANET_BODY = """MAP cloudy LATLON '{map}'
 MODEL ground LAMBERTIAN {albedo}
 MODEL sea GLINT WIND 7 m/s INDEX 1.34 ALBEDO 0.02
 MODEL air RAYLEIGH TAU {tau} ALBEDO {ssa}
 MODEL murk RAYLEIGH TAU 4 ALBEDO 0.95
 MEDIUM lens INDEX {index}
 SURFACE
-  SPHERE 0 0 0 100
+  SPHERE 0 0 {z} 100
 OBJECT ball
   INTERFACE ABSORB
   SCATTER MAP cloudy MODELS ground
   SCATTER MODEL sea
 SURFACE
-  SPHERE 0 0 0 102
+  SPHERE 0 0 {z} 102
 OBJECT deck
   INTERFACE TRANSMIT lens lens
   SCATTER MAP cloudy MODELS murk
 SURFACE
-  SPHERE 0 0 0 105
+  SPHERE 0 0 {z} 105
 OBJECT atmosphere
   INTERFACE TRANSMIT lens AIR
   SCATTER MODEL air
-SURFACE
+"""
+PLANET = """UNITS M
+WAVELENGTHS RANGE (400 NM) (700 NM) {nl}
+SEED {seed}
+""" + PLANET_BODY.replace("{z}", "0") + """SURFACE
   PLANE Z 1e5 DISK 0.25
 OBJECT pupil
   DETECTOR PIXELS 1

@@ -33,7 +33,7 @@ from irtlang.cli import main
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _trace_util import small_cassegrain  # noqa: E402
-from test_camera_hero import _albedo, _values  # noqa: E402
+from test_camera_hero import PLANET_BODY, _albedo, _values  # noqa: E402
 from test_camera_image import _variance_ratio  # noqa: E402
 
 NL = 16
@@ -87,29 +87,7 @@ OBJECT ball
   INTERFACE ABSORB
   SCATTER MODEL paint
 """ + TAIL
-PLANET = HEAD + """MAP cloudy LATLON '{map}'
-MODEL ground LAMBERTIAN {albedo}
-MODEL sea GLINT WIND 7 m/s INDEX 1.34 ALBEDO 0.02
-MODEL air RAYLEIGH TAU {tau} ALBEDO {ssa}
-MODEL murk RAYLEIGH TAU 4 ALBEDO 0.95
-MEDIUM lens INDEX {index}
-SURFACE
-  SPHERE 0 0 1e5 100
-OBJECT ball
-  INTERFACE ABSORB
-  SCATTER MAP cloudy MODELS ground
-  SCATTER MODEL sea
-SURFACE
-  SPHERE 0 0 1e5 102
-OBJECT deck
-  INTERFACE TRANSMIT lens lens
-  SCATTER MAP cloudy MODELS murk
-SURFACE
-  SPHERE 0 0 1e5 105
-OBJECT atmosphere
-  INTERFACE TRANSMIT lens AIR
-  SCATTER MODEL air
-""" + TAIL
+PLANET = HEAD + PLANET_BODY.replace("{z}", "1e5") + TAIL
 
 
 def _run(tmp_path, name, text, tables=_step_tables):
@@ -132,6 +110,16 @@ def _planet(seed, how, rays=16):
     m = Path(__file__).resolve().parents[2] / "examples_scripts" / "data" / "half_cloudy.npy"
     return PLANET.format(seed=seed, how=how, rays=rays, map=m, albedo=_values(_albedo(NL)), tau=_values(tau),
                          ssa=_values(ssa), index=_values(index))
+
+
+def _two_seeds(tmp_path, how, s1, s2):
+    """The planet traced with two seeds: the variance ratio over the lit pixels and its sigma (_variance_ratio)."""
+    a, ae = _run(tmp_path, "s1", _planet(s1, how))
+    b, be = _run(tmp_path, "s2", _planet(s2, how))
+    assert not np.array_equal(a, b)
+    m = (ae > 0) & (be > 0) & ((a + b) > 0.05 * (a + b).max(axis=(1, 2), keepdims=True))
+    assert m.sum() > 300, m.sum()
+    return _variance_ratio(a, ae, b, be, m)
 
 
 def test_hero_band_images_of_a_lambert_sphere_closed_form(tmp_path):
@@ -177,13 +165,8 @@ def test_hero_band_image_standard_errors_match_the_scatter_between_seeds(tmp_pat
     """Two seeds of the planet with HERO: the variance ratio over the lit pixels 1 within 5 sigma, both ways.
     Errors that ignored that a ray's lines share its path (squared line by line) would be too small; ones that
     counted the spread between strata too large."""
-    a, ae = _run(tmp_path, "s1", _planet(11, "SPECTRAL 8 HERO 4"))
-    b, be = _run(tmp_path, "s2", _planet(12, "SPECTRAL 8 HERO 4"))
-    m = (ae > 0) & (be > 0) & ((a + b) > 0.05 * (a + b).max(axis=(1, 2), keepdims=True))
-    assert m.sum() > 300, m.sum()
-    ratio, sd = _variance_ratio(a, ae, b, be, m)
+    ratio, sd = _two_seeds(tmp_path, "SPECTRAL 8 HERO 4", 11, 12)
     assert abs(ratio - 1.0) < 5.0 * sd, (ratio, sd)
-    assert not np.array_equal(a, b)
 
 
 def test_unpaired_hero_band_image_errors_are_not_understated(tmp_path):
@@ -194,9 +177,5 @@ def test_unpaired_hero_band_image_errors_are_not_understated(tmp_path):
     0.10).  (Squaring each line's share apart would understate the errors where a ray's lines in one image are
     correlated; with two lines per filter image here that is up to 2-fold, which this bound alone may not
     catch: the flagship's calibration, tests/physics/test_earth_run.py, is two-sided.)"""
-    a, ae = _run(tmp_path, "s1", _planet(21, "SPECTRAL 7 HERO 4"))
-    b, be = _run(tmp_path, "s2", _planet(22, "SPECTRAL 7 HERO 4"))
-    m = (ae > 0) & (be > 0) & ((a + b) > 0.05 * (a + b).max(axis=(1, 2), keepdims=True))
-    assert m.sum() > 300, m.sum()
-    ratio, sd = _variance_ratio(a, ae, b, be, m)
+    ratio, sd = _two_seeds(tmp_path, "SPECTRAL 7 HERO 4", 21, 22)
     assert ratio < 1.0 + 5.0 * sd, (ratio, sd)
