@@ -46,45 +46,49 @@ def table_mu_nodes(nt: int, mu_lo: float = 0.0) -> np.ndarray:
     return np.maximum(t * t, MU_MIN)
 
 
-@numba.njit(cache=True, fastmath=False)
-def table_interp(P, k, row0, nt, t0, mu):
-    """Value at cos_i = mu of the table in rows row0 .. row0 + nt - 1 of column k (nodes: table_mu_nodes)."""
+@numba.njit(cache=True, fastmath=False, inline="always")
+def table_weights(nt, t0, mu):
+    """Where cos_i = mu falls in a table of nt nodes (table_mu_nodes): (edge, j, l0, l1, l2, l3), edge -1 below
+    the first node, +1 beyond the last (the value is that node's), else 0 and the Lagrange weights on the nodes
+    j, j+1, j+2, j+3 (local coordinate s in [0, 3])."""
     t = math.sqrt(min(1.0, max(0.0, mu)))
     x = (t - t0) / (1.0 - t0) * (nt - 1)
     if x <= 0.0:
-        return P[row0, k]
+        return -1, 0, 1.0, 0.0, 0.0, 0.0
     if x >= nt - 1:
-        return P[row0 + nt - 1, k]
+        return 1, nt - 4, 0.0, 0.0, 0.0, 1.0
     i = int(x)
     j = min(max(i - 1, 0), nt - 4)
     s = x - j
-    # Lagrange weights on the nodes j, j+1, j+2, j+3 (local coordinate s in [0, 3])
     l0 = -(s - 1.0) * (s - 2.0) * (s - 3.0) / 6.0
     l1 = s * (s - 2.0) * (s - 3.0) / 2.0
     l2 = -s * (s - 1.0) * (s - 3.0) / 2.0
     l3 = s * (s - 1.0) * (s - 2.0) / 6.0
+    return 0, j, l0, l1, l2, l3
+
+
+@numba.njit(cache=True, fastmath=False, inline="always")
+def table_at(P, k, row0, nt, w):
+    """The value of the table in rows row0 .. row0 + nt - 1 of column k at table_weights' w."""
+    edge, j, l0, l1, l2, l3 = w
+    if edge < 0:
+        return P[row0, k]
+    if edge > 0:
+        return P[row0 + nt - 1, k]
     return l0 * P[row0 + j, k] + l1 * P[row0 + j + 1, k] + l2 * P[row0 + j + 2, k] + l3 * P[row0 + j + 3, k]
 
 
 @numba.njit(cache=True, fastmath=False)
+def table_interp(P, k, row0, nt, t0, mu):
+    """Value at cos_i = mu of the table in rows row0 .. row0 + nt - 1 of column k (nodes: table_mu_nodes)."""
+    return table_at(P, k, row0, nt, table_weights(nt, t0, mu))
+
+
+@numba.njit(cache=True, fastmath=False)
 def table_interp2(P, k, row_a, row_b, nt, t0, mu):
-    """table_interp of two tables of column k at one cos_i = mu (the same nodes): the weights once, both values
-    bit for bit as two table_interp calls give them."""
-    t = math.sqrt(min(1.0, max(0.0, mu)))
-    x = (t - t0) / (1.0 - t0) * (nt - 1)
-    if x <= 0.0:
-        return P[row_a, k], P[row_b, k]
-    if x >= nt - 1:
-        return P[row_a + nt - 1, k], P[row_b + nt - 1, k]
-    i = int(x)
-    j = min(max(i - 1, 0), nt - 4)
-    s = x - j
-    l0 = -(s - 1.0) * (s - 2.0) * (s - 3.0) / 6.0
-    l1 = s * (s - 2.0) * (s - 3.0) / 2.0
-    l2 = -s * (s - 1.0) * (s - 3.0) / 2.0
-    l3 = s * (s - 1.0) * (s - 2.0) / 6.0
-    return (l0 * P[row_a + j, k] + l1 * P[row_a + j + 1, k] + l2 * P[row_a + j + 2, k] + l3 * P[row_a + j + 3, k],
-            l0 * P[row_b + j, k] + l1 * P[row_b + j + 1, k] + l2 * P[row_b + j + 2, k] + l3 * P[row_b + j + 3, k])
+    """table_interp of two tables of column k at one cos_i = mu (the same nodes): the weights once."""
+    w = table_weights(nt, t0, mu)
+    return table_at(P, k, row_a, nt, w), table_at(P, k, row_b, nt, w)
 
 
 # ---------------------------------------------------------------- slab geometry
