@@ -199,6 +199,7 @@ class Engine:
         self.result = res
         self.scene = sc
         self.last_trace = (sc, p)     # PST and SPOTS DIAGRAM trace its sources again
+        self.last_features = res.packed.features    # ... on its kernel (pack's floor: no compile of their own)
         self.rays_traced += res.n_traced
         self.folder.info["rays_traced"] = self.rays_traced
         tier = data_tier(sc, self.folder.info.get("data_tier"))

@@ -4,6 +4,7 @@
 
 water.csv      wavelength_nm, n, k of water (a smooth stand-in, 200-3000 nm)
 grass.csv      wavelength_nm, reflectance of grass (a smooth stand-in, 200-3000 nm)
+blue.csv       wavelength_nm, transmission of a blue filter (a smooth stand-in, 200-3000 nm)
 landcover.npy  a 90 x 180 LATLON class map (uint8, classes 0..4: water forest grass desert snow)
 clouds.npy     a 90 x 180 LATLON fraction map (float16 in [0, 1])
 baffle.stl     a 20 x 20 x 40 box, ASCII STL (made with trimesh)
@@ -31,6 +32,12 @@ def main() -> None:
     with open(HERE / "grass.csv", "w") as f:
         f.write("# a stand-in for the reflectance of grass, not measured data\nwavelength_nm,value\n")
         for row in zip(w, refl):
+            f.write("%g,%.3f\n" % row)
+    wb = np.arange(200.0, 3001.0, 50.0)
+    blue = np.clip(1.0 - np.abs(wb - 450.0) / 100.0, 0.0, 1.0) * 0.9
+    with open(HERE / "blue.csv", "w") as f:
+        f.write("# a stand-in for a blue band-pass filter, not measured data\nwavelength_nm,value\n")
+        for row in zip(wb, blue):
             f.write("%g,%.3f\n" % row)
 
     lat = np.linspace(89.0, -89.0, 90)[:, None]

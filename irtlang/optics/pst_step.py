@@ -56,7 +56,7 @@ def run_pst(eng, step, interp) -> None:
         s2 = M.replace(src, params=M.frozen_params({"grid": g, "direction": d}))
         scn = M.replace(sc, sources=(s2,))
         res = run_trace(scn, seed=scn.seed, level=tp["level"], halt=tp["halt"], records=False, history=False,
-                        runner=eng.runner)
+                        runner=eng.runner, features=getattr(eng, "last_features", None))
         eng.rays_traced += res.n_traced
         P = float(res.ledger[res.packed.n_rows - 4, 0].sum())
         flux, se = res.flux_on(oi)

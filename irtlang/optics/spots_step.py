@@ -34,7 +34,8 @@ def _field_results(eng, step):
             s2 = M.replace(src, params=M.frozen_params({"grid": src.params["grid"],
                                                         "direction": {"angle_x": fx, "angle_y": fy}}))
             res = run_trace(M.replace(sc, sources=(s2,)), seed=sc.seed, level=tp["level"], halt=tp["halt"],
-                            records=True, history=eng.need_history or eng.predicate is not None, runner=eng.runner)
+                            records=True, history=eng.need_history or eng.predicate is not None, runner=eng.runner,
+                            features=getattr(eng, "last_features", None))
             eng.rays_traced += res.n_traced
             out.append((f"field ({math.degrees(fx):+.4g}, {math.degrees(fy):+.4g}) deg",
                         (math.degrees(fx), math.degrees(fy)), res))

@@ -68,6 +68,44 @@ def test_the_plan_names_the_kernels_the_run_uses(tmp_path, monkeypatch):
     assert planned[0] == used[0]
 
 
+# a forward trace that keeps records and history (STATS PATHS), then the two commands that trace its source
+# again: PST (records off) and SPOTS DIAGRAM ... FIELDS (records on)
+RETRACES = """MODEL black LAMBERTIAN 0.1
+SURFACE
+  TUBE Z 0 10 100 10
+OBJECT tube
+  SCATTER MODEL black TOWARD det
+SURFACE
+  PLANE Z 0 RECT 5 5
+OBJECT det
+  DETECTOR PIXELS 4
+LEVEL 3
+GRID DISK Z 100 10 RAYS 2000 RANDOM
+SOURCE FIELD 20 0
+TRACE
+STATS PATHS 'paths.csv' TOP 4
+PST 'pst.csv' ON det ANGLES 10 30 2
+SPOTS DIAGRAM 'spots.png' FIELDS 1 1 deg
+"""
+
+
+def test_retraces_run_on_the_kernel_of_the_trace_they_repeat(tmp_path, monkeypatch):
+    """PST and SPOTS DIAGRAM ... FIELDS trace the last TRACE's source again with other records: they run on its
+    kernel (pack's floor), so a first run compiles no kernel for them, and the plan (which does not list them)
+    misses none.  Without the floor PST asked for a kernel of its own (records off): a second cold compile."""
+    from irtlang.ahead import plan
+    from irtlang.api import Script, load_check
+    from irtlang.compile.pack import pack
+
+    path = tmp_path / "retraces.inr"
+    path.write_text(RETRACES)
+    checked = load_check(Script(path))
+    planned = [pack(sc, records=r, history=h).features.key() for sc, r, h, _lv in plan(checked.steps)]
+    used = _used_keys(monkeypatch, path, tmp_path / "out")
+    assert len(used) == 1 + 2 + 9          # the TRACE, two PST angles, the 3 x 3 field grid
+    assert set(used) == set(planned) and len(planned) == 1, (planned, used)
+
+
 def test_the_helper_skips_what_is_cached_or_locked_and_compiles_the_rest(tmp_path, monkeypatch):
     """compile_planned with the compile itself replaced by a recorder: the kernel another process holds the
     lock of is left to it, a cached one is left alone, the others are compiled once each, in plan order."""
