@@ -64,7 +64,8 @@ class Features:
     importance: bool = False   # SCATTER ... TOWARD: next-event rays and the IMPORTANCE ledger row
     shells: bool = False       # nested concentric spheres/ellipsoids (atmosphere shells): test neighbours only
     polar: bool = False        # POLARIZATION (or a POLARIZER / RETARDER interface): Stokes vectors
-    camera: bool = False       # a TRACE CAMERA's sources: spectral samples, DIRECTIONS pairs, GUIDE tables, HERO
+    camera: bool = False       # a TRACE CAMERA's sources: spectral samples, DIRECTIONS pairs, GUIDE tables
+    hero: bool = False         # a camera source with hero wavelengths (HERO K: its par[SP_HERO] > 1)
     bsdf_kinds: tuple = ()     # the scatter-model kinds the scene uses (their dispatch order)
     source_kinds: tuple = ()   # the source kinds its sources use (emitters and directions; () compiles them all)
 
@@ -793,6 +794,7 @@ def pack(scene: M.Scene, *, records: bool = False, history: bool = False, floor:
         raise error(cam.span, "TRACE CAMERA ... HERO: the scene " + ("polarizes (a POLARIZER or RETARDER interface)"
                     if feats.polar else "has a VOLUME medium") + ", which HERO does not carry per line",
                     "trace it without HERO")
+    feats.hero = bool(np.any(src["src_par"][:, SP_HERO] > 1.0))
     for t in src["src_Th"]:
         if np.max(np.abs(t)) > 1e6:
             feats.precise = True

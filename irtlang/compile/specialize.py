@@ -23,7 +23,7 @@ _FLAGS = {"conic": "F_CONIC", "quadric": "F_QUADRIC", "mesh": "F_MESH", "refract
           "absorb_media": "F_ABSORB_MEDIA", "precise": "F_PRECISE", "records": "F_RECORDS", "history": "F_HISTORY",
           "scatter": "F_SCATTER", "maps": "F_MAPS", "volume": "F_VOLUME", "importance": "F_IMPORTANCE",
           "shells": "F_SHELLS", "polar": "F_POLAR",
-          "camera": "F_CAMERA"}
+          "camera": "F_CAMERA", "hero": "F_HERO"}
 _FUNCS = ("sample", "eval", "albedo", "direct", "mueller", "pdf", "delta", "parts")
 _SIGS = {"sample": "P, k, wix, wiy, wiz, nx, ny, nz, u0, u1, u2",
          "eval": "P, k, wix, wiy, wiz, wox, woy, woz, nx, ny, nz", "albedo": "P, k, cos_i", "direct": "P, k, cos_i",

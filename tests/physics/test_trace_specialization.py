@@ -66,5 +66,50 @@ def test_mirrors_only_scene_compiles_no_other_features(monkeypatch):
     assert mod.F_CONIC is True
     # a forward trace compiles no camera sampling, and only its own source kinds' dispatch
     assert not f.camera and mod.F_CAMERA is False
+    assert not f.hero and mod.F_HERO is False
     assert f.source_kinds == ("GRID DISK", "SOURCE DIRECTION")
     assert "emitting_sphere" not in Path(mod.__file__).read_text()
+
+
+# a planet seen by a camera with four filters and by a one-pixel pupil: the flagship's two camera traces in small
+CAMERAS = """UNITS M
+WAVELENGTHS RANGE 400 700 16 NM
+SPECTRUM red TABLE '{grass}'
+MODEL paint LAMBERTIAN 0.6
+SURFACE
+  SPHERE 0 0 0 100
+OBJECT ball
+  INTERFACE ABSORB
+  SCATTER MODEL paint
+SURFACE
+  PLANE Z 1e5 RECT 0.01 0.01
+OBJECT cam
+  INTERFACE ABSORB
+  DETECTOR PIXELS 8 FILTERS red red red red
+SURFACE
+  PLANE Z 1e5 DISK 0.25
+OBJECT pupil
+  DETECTOR PIXELS 1
+EMITTING SPHERE 8.66e8 0 5e8 1e6 RAYS 1
+TRACE CAMERA cam AIM ball SPECTRAL 4 {image}
+EMITTING SPHERE 8.66e8 0 5e8 1e6 RAYS 1
+TRACE CAMERA pupil AIM ball DIRECTIONS 2 {pupil}
+"""
+
+
+@pytest.mark.parametrize("image, pupil, hero", [("HERO 2", "HERO 4", (True, True)), ("", "", (False, False)),
+                                                ("", "HERO 4", (False, True))])
+def test_only_a_trace_with_hero_wavelengths_compiles_their_code(image, pupil, hero, monkeypatch):
+    """HERO's code (about a third of a camera kernel's first compile) is in a kernel only where a camera source
+    uses it (Features.hero, F_HERO); the flagship's image and pupil traces, both with HERO, share one kernel."""
+    from irtlang.ahead import plan
+
+    monkeypatch.setenv("IRT_KERNEL_FEATURES", "specialized")
+    grass = Path(__file__).resolve().parents[2] / "docs" / "examples" / "grass.csv"
+    it = Interpreter(check_only=True)
+    it.run_source(Source("cams.inr", CAMERAS.format(grass=grass, image=image, pupil=pupil)))
+    assert not it.diags, it.diags.items
+    feats = [pack(sc, records=r, history=h).features for sc, r, h, _lv in plan(it.steps)]
+    assert [f.hero for f in feats] == list(hero) and all(f.camera for f in feats)
+    assert (feats[0].key() == feats[1].key()) == (hero[0] == hero[1])
+    assert [specialize.kernel_module(f).F_HERO for f in feats] == list(hero)
