@@ -14,7 +14,8 @@ The plan mirrors ``irtlang.engine``: a forward TRACE packs its scene (after CONS
 history the program needs; a TRACE CAMERA packs its camera scene (``model.camera.camera_scene``, the first
 analyzer pass) without them; a GUIDE's pilot runs on its camera trace's kernel.  Steps whose scenes have the same
 structure (objects, sources, camera options) are packed once.  Retraces by PST and SPOTS DIAGRAM ... FIELDS
-need no plan: they run on the kernel of the TRACE they repeat (``engine.last_features``, pack's floor).  A plan that misses a kernel costs nothing but the time saved (the run compiles it when it needs it).
+need no plan: they run on the kernel of the TRACE they repeat (``engine.last_features``, pack's floor).  A plan
+that misses a kernel costs nothing but the time saved (the run compiles it when it needs it).
 
 ``irt warmup FILE`` (``warmup``) runs the same plan in the foreground, in as many processes as asked, and waits
 for all of it.  ``IRT_COMPILE_AHEAD=0`` turns the run's helper off (also the reduction's compile ahead,
