@@ -1,7 +1,9 @@
 """Start-up: the wall time of a whole ``irt run`` process on a small script, cold (an empty Numba cache) and warm.
 
 Run: ``python -m benchmarks.bench_startup [--script FILE] [--repeat K] [--quick]`` (also part of
-``python -m benchmarks``).
+``python -m benchmarks``); ``python -m benchmarks.bench_startup --examples [NAME ...]``: the first run of every
+runnable example (or those named), each from its own empty Numba cache, against issue 18's 45 s (about 15 min
+for all of them; not part of ``python -m benchmarks``).
 
 The process is ``python -c "from irtlang.cli import main; ..." run SCRIPT --out TMP`` with this interpreter and
 the working tree first on the path (the same code as the ``irt`` entry point, without a shell wrapper).  Cold: a
@@ -104,6 +106,50 @@ def run(quick: bool = False, repeat: int = 5, script: Path = SCRIPT, cold: bool 
     return r
 
 
+#: the examples' settings for a first run that is not the whole job (the flagship's day: its first frame)
+EXAMPLE_SETS = {"earth": ("hours=1",)}
+TARGET_FIRST = 45.0
+
+
+def runnable_examples() -> list:
+    """examples_scripts/*.inr that a user runs: not those another example INCLUDEs (cassegrain.inr, ...), nor
+    those that trace and load nothing (cassegrain_optics.inr, the bare mirrors that tests include)."""
+    files = sorted((ROOT / "examples_scripts").glob("*.inr"))
+    included = set()
+    for f in files:
+        included |= {Path(m).name for m in re.findall(r"^\s*INCLUDE\s+'([^']+)'", f.read_text(), flags=re.M)}
+    return [f for f in files if f.name not in included
+            and re.search(r"^\s*(TRACE|LOAD)\b", f.read_text(), flags=re.M)]
+
+
+def examples_first_run(names=()) -> list:
+    """Each runnable example's whole first `irt run` from an empty Numba cache (the data caches as they are),
+    one at a time: [{"example", "s", "rc"}]."""
+    out = []
+    for f in runnable_examples():
+        if names and f.stem not in names:
+            continue
+        args = ["run", str(f)] + [a for x in EXAMPLE_SETS.get(f.stem, ()) for a in ("--set", x)]
+        with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as o:
+            t0 = time.perf_counter()
+            p = python_child(RUN, *args, "--out", o, env={"NUMBA_CACHE_DIR": cache}, timeout=1800)
+            out.append({"example": f.stem, "settings": EXAMPLE_SETS.get(f.stem, ()), "rc": p.returncode,
+                        "s": time.perf_counter() - t0})
+    return out
+
+
+def examples_report(rows: list) -> str:
+    lines = ["## First runs of the examples", "",
+             "Each runnable example's whole `irt run` from its own empty Numba cache (it compiles its kernels), one "
+             f"at a time, against issue 18's {TARGET_FIRST:.0f} s:", "",
+             "| example | first run | within 45 s |", "|---|---|---|"]
+    for r in rows:
+        sets = "".join(f" `--set {x}`" for x in r["settings"])
+        t = f"{r['s']:.1f} s" if r["rc"] == 0 else f"failed (exit {r['rc']})"
+        lines.append(f"| {r['example']}{sets} | {t} | {'yes' if r['rc'] == 0 and r['s'] <= TARGET_FIRST else 'no'} |")
+    return "\n".join(lines + [""])
+
+
 def _time_child(code: str) -> float:
     t0 = time.perf_counter()
     python_child(code)
@@ -152,7 +198,13 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--no-cold", action="store_true", help="skip the cold run (it compiles the kernels: minutes)")
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--examples", nargs="*", default=None, metavar="NAME",
+                    help="the first run of every runnable example (or those named), each from an empty cache")
     a = ap.parse_args(argv)
+    if a.examples is not None:
+        rows = examples_first_run(a.examples)
+        print(examples_report(rows))
+        return rows
     r = run(a.quick, a.repeat, a.script.resolve(), cold=False if a.no_cold else None)
     print(report(r))
     return r

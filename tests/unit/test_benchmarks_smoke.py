@@ -62,3 +62,17 @@ def test_startup_import_table_parser():
            "import time:       300 |       5000 | numpy\n"
            "import time:       200 |       9000 | matplotlib.pyplot\n")
     assert top_imports(err, 2) == [("matplotlib.pyplot", 9.0), ("numpy", 5.0)]
+
+
+def test_first_run_benchmark_lists_the_runnable_examples():
+    """bench_startup --examples times the examples a user runs: not the files other scripts include (the
+    instrument's parts), nor the bare mirrors that only tests include; each listed one checks cleanly."""
+    from benchmarks.bench_startup import runnable_examples
+    from irtlang.lang.interp import check_file
+
+    names = {f.stem for f in runnable_examples()}
+    assert {"earth", "telescope_spots", "stray_hri_pst", "ghost_reload"} <= names
+    assert not names & {"cassegrain", "cassegrain_design", "cassegrain_optics", "earth_scene"}
+    for f in runnable_examples():
+        if f.stem not in ("earth", "earth_defocus"):      # (their checks load the Earth's data: seconds)
+            assert not check_file(f, ()).diags.items, f.name
