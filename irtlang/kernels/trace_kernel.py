@@ -1556,34 +1556,50 @@ def _nee_map_mix(SC, MD, scf, scn, ll, line, cos_i, geo, R, T, Rf):
 
 
 @numba.njit(cache=True, inline="always")
-def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, MD, scf, scn, nee, w, nee_cut, o_bc, o_br, fres, ll,
-             pos, d, nv, pol, o, j, opl, sx0, sy0, hist, H):
-    """Expected-value next-event estimation over a fraction map's choice: when the hit's SCATTER specs include a
-    fraction map, every model the hit may use sends its rays toward its target, weighted by the probability that
-    the hit uses it (the random choice in _scatter_spec still decides the path's continuation, which then sends
-    none): the same expectation, without the variance of the choice (a partly cloudy pixel: cloud or not).
-    A slab model on an index step (an atmosphere shell) sends w (1 - R_Fresnel), as in _model_split.  o_bc,
-    o_br: the objects' bounding spheres (apart, not as a tuple: docs/architecture.md), fres (interface, m1, m2, cos_i, Ar, Br, the boundary's unpolarized Fresnel R from
-    _specular), ll: the hit's geodetic (latitude, longitude).
-    Returns (used, sp, npath)."""
-    ev_nee = F_MAPS and F_IMPORTANCE and not nee and _has_fraction_map(SC, scf, scn)
-    if F_MAPS and F_IMPORTANCE and ev_nee:
-        lat, lon = ll
-        it, m1, m2, cos_i, Ar, Br, Rfr = fres
-        keep = 1.0      # a slab's share behind the boundary's Fresnel reflection
+def _next_events(stack, sp, npath, led, c, r_imp, key, line, SC, MD, specs, chosen, nee, w, nee_cut, o_bc, o_br,
+                 fres, ll, pos, d, nv, pol, o, j, opl, sx0, sy0, hist, H):
+    """A hit's rays toward its targets (next-event estimation, exact weights), from the one call site of
+    _bsdf_toward in the event loop (each inlined copy of it, HERO's per-line code included, costs the Earth's
+    camera kernel about 14 s of its first compile).  Not for a ray itself aimed at a target.
+    * Over a fraction map (the hit's SCATTER specs include one): every model the hit may use sends its rays
+      toward its target, weighted by the probability that the hit uses it (the random choice in _scatter_spec
+      still decides the path's continuation, which then sends none): the same expectation, without the variance
+      of the choice (a partly cloudy pixel: cloud or not).
+    * Otherwise the chosen model (chosen: its spec sc, RAYS n, TOWARD target, and _model_share's keep).
+    A slab model on an index step (an atmosphere shell) sends w keep, keep = 1 - R_Fresnel (0 under total
+    internal reflection): what the boundary lets in.  specs (first, count) of the hit's SCATTER specs, fres
+    (interface, m1, m2, cos_i, Ar, Br, the boundary's unpolarized Fresnel R from _specular), ll: the hit's
+    geodetic (latitude, longitude); o_bc, o_br: the objects' bounding spheres (apart, not as a tuple:
+    docs/architecture.md).  Returns (sp, npath)."""
+    if not F_IMPORTANCE or nee:
+        return sp, npath
+    scf, scn = specs
+    sc, sc_n, sc_tgt, keep_m = chosen
+    it, m1, m2, cos_i, Ar, Br, Rfr = fres
+    ev_nee = F_MAPS and _has_fraction_map(SC, scf, scn)
+    njobs = 0
+    keep = 1.0      # over a map: a slab's share behind the boundary's Fresnel reflection
+    if ev_nee:
+        njobs = scn
         if F_REFRACT and it == IF_FRESNEL and MD.n[m1, line] != MD.n[m2, line]:
             if F_POLAR:
                 keep = 1.0 - (Ar + Br * pol[0])
             else:
                 keep = 1.0 - Rfr    # _specular's fresnel_unpolarized(cos_i, n1, n2), the same call
-        preach = 1.0
-        kc = 0
-        for qq in range(scn):
+    elif F_SCATTER and sc >= 0 and sc_tgt >= 0:
+        njobs = 1
+    preach = 1.0
+    kc = 0
+    wq = 0.0
+    for qq in range(njobs):
+        if ev_nee:
+            lat, lon = ll
             spn = scf + qq
             mq, pmix, preach = _spec_share(SC, spn, lat, lon, preach)
             tq = SC.tgt[spn]
-            if mq >= 0 and tq >= 0 and pmix > 0.0:
-                nr = SC.rays[spn]
+            nr = SC.rays[spn]
+            send = mq >= 0 and tq >= 0 and pmix > 0.0
+            if send:
                 wq = w * pmix * keep if SC.mod_slab[mq] == 1 else w * pmix
                 if F_HERO and stack[POOL, 2] > 0.0:
                     # each line's share: its own Fresnel keep behind an index step (row H_RF)
@@ -1594,43 +1610,23 @@ def _map_nee(stack, sp, npath, led, c, r_imp, key, line, SC, MD, scf, scn, nee, 
                             if MD.n[m1, lt] != MD.n[m2, lt]:
                                 kt = 1.0 - stack[H_RF, t]
                         stack[H_B, t] = stack[H_A, t] * pmix * kt
-                sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, kc, SC.mod_kind[mq],
-                                         SC.mod_P[mq].T, tq, nr, wq, nee_cut, o_bc, o_br, pos, d, nv, pol, o, j, opl,
-                                         sx0, sy0, hist, H)
-                kc += nr
-            if preach <= 0.0:
-                break
-    return ev_nee, sp, npath
-
-
-@numba.njit(cache=True, inline="always")
-def _model_split(stack, sp, npath, led, c, r_imp, key, line, SC, MD, spec, geo, fres, cos_i, how, w, nee_cut,
-                 o_bc, o_br, pos, d, nv, pol, opl, sx0, sy0, hist, H):
-    """How a hit with scatter model spec = (model, RAYS n, TOWARD target) shares its light: the specular R and T
-    that the model leaves, and its diffuse part (a slab model is the whole interaction, behind the boundary's
-    Fresnel reflection on a shell), and the model's rays toward its target (next-event estimation, exact weights;
-    not for a ray itself aimed at a target, nor where _map_nee sent them).  A slab on an index step scatters
-    only the share keep = 1 - R_Fresnel (0 under total internal reflection): its rays toward the target carry
-    w keep, and its sampled scatterings' weights carry keep too (_diffuse_scatter).  geo (object, surface,
-    interface, m1, m2), fres (R, T, Ar, Br, and _specular's R before any gate: an IF_FRESNEL boundary's
-    unpolarized Fresnel R), how (nee, ev_nee), o_bc, o_br the objects' bounding spheres.  Returns (R, T, diffuse,
-    keep, kind, P, sp, npath)."""
-    sc, sc_n, sc_tgt = spec
-    o, j, it, m1, m2 = geo
-    R, T, Ar, Br, Rfr = fres
-    nee, ev_nee = how
-    # the boundary's Fresnel reflectance (_specular's fresnel_unpolarized(cos_i, n1, n2), the same call)
-    Rf = Ar + Br * pol[0] if F_POLAR else Rfr
-    R, T, diffuse, keep, mk, Pm = _model_share(SC, MD, sc, line, cos_i, (it, m1, m2), R, T, Rf, nee)
-    # rays sent toward the target (next-event estimation), exact weights; a slab on an index step sends only
-    # what the boundary lets in
-    if F_IMPORTANCE and sc_tgt >= 0 and not nee and not ev_nee:
-        if F_HERO and stack[POOL, 2] > 0.0:
-            for t in range(int(stack[POOL, 2])):
-                stack[H_B, t] = stack[H_A, t] * stack[H_K, t]
-        sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, 0, mk, Pm, sc_tgt, sc_n, w * keep,
-                                 nee_cut, o_bc, o_br, pos, d, nv, pol, o, j, opl, sx0, sy0, hist, H)
-    return R, T, diffuse, keep, mk, Pm, sp, npath
+        else:
+            mq = sc
+            tq = sc_tgt
+            nr = sc_n
+            send = True
+            wq = w * keep_m
+            if F_HERO and stack[POOL, 2] > 0.0:
+                for t in range(int(stack[POOL, 2])):
+                    stack[H_B, t] = stack[H_A, t] * stack[H_K, t]
+        if send:
+            sp, npath = _bsdf_toward(stack, sp, npath, led, c, r_imp, line, key, kc, SC.mod_kind[mq],
+                                     SC.mod_P[mq].T, tq, nr, wq, nee_cut, o_bc, o_br, pos, d, nv, pol, o, j, opl,
+                                     sx0, sy0, hist, H)
+            kc += nr
+        if ev_nee and preach <= 0.0:
+            break
+    return sp, npath
 
 
 @numba.njit(cache=True, inline="always")
@@ -2160,19 +2156,17 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                     if F_HERO and HK > 0:
                         _hero_shares(HV, HK, SC, MD, (it, m1, m2), o_coat[o], ci, gz, fm_nee, (scf, scn),
                                      (glat, glon), sc, cos_i, nee)
-                    # a fraction map's models all send their rays toward their targets (expected value)
-                    ev_nee, sp, npath = _map_nee(stack, sp, npath, led, c, r_imp, (seed, i, ev, path), line, SC, MD,
-                                                 scf, scn, nee, w, nee_cut, o_bc, o_br,
-                                                 (it, m1, m2, cos_i, Ar, Br, Rfr), (glat, glon),
-                                                 (phx, phy, phz, plx, ply, plz), (dx, dy, dz), (nvx, nvy, nvz),
-                                                 (stq, stu, stv, ex, ey, ez), o, j, opl, sx0, sy0, hist, H)
                     if F_SCATTER and sc >= 0:
-                        # the model's share of the light (R, T and diffuse), and its rays toward its target
-                        R, T, diffuse, slab_keep, mk, Pm, sp, npath = _model_split(
-                            stack, sp, npath, led, c, r_imp, (seed, i, ev, path), line, SC, MD, (sc, sc_n, sc_tgt),
-                            (o, j, it, m1, m2), (R, T, Ar, Br, Rfr), cos_i, (nee, ev_nee), w, nee_cut, o_bc, o_br,
-                            (phx, phy, phz, plx, ply, plz), (dx, dy, dz), (nvx, nvy, nvz),
-                            (stq, stu, stv, ex, ey, ez), opl, sx0, sy0, hist, H)
+                        # the model's share of the light (R, T and diffuse); the boundary's Fresnel R first (a slab
+                        # on an index step takes only what the boundary lets in)
+                        R, T, diffuse, slab_keep, mk, Pm = _model_share(SC, MD, sc, line, cos_i, (it, m1, m2), R, T,
+                                                                        Ar + Br * stq if F_POLAR else Rfr, nee)
+                    # the rays toward the targets: the chosen model's, or over a fraction map every model's
+                    sp, npath = _next_events(stack, sp, npath, led, c, r_imp, (seed, i, ev, path), line, SC, MD,
+                                             (scf, scn), (sc, sc_n, sc_tgt, slab_keep), nee, w, nee_cut, o_bc, o_br,
+                                             (it, m1, m2, cos_i, Ar, Br, Rfr), (glat, glon),
+                                             (phx, phy, phz, plx, ply, plz), (dx, dy, dz), (nvx, nvy, nvz),
+                                             (stq, stu, stv, ex, ey, ez), o, j, opl, sx0, sy0, hist, H)
                     tot = R + T + diffuse
                     if tot <= 0.0:
                         led[c, o, C_ABS, line] += w
