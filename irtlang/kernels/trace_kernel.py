@@ -88,6 +88,9 @@ EPS_SELF = 1e-9
 # rides in the stack, with K and the hero's place in the POOL row's columns 2 and 3)
 H_A, H_S, H_R, H_T, H_D, H_K, H_RF, H_B, H_C, H_ACC, H_L, H_F, H_P, H_E, H_Q = range(SMAX + 1, SMAX + 16)
 N_HERO_ROWS = 15
+# A HERO kernel (not polarized) takes every hit's shares from _hero_shares, a one-line ray's as a block of one,
+# so that _specular, _nee_map_mix and _model_share are compiled into its event loop once, not twice
+HERO_SHARES = F_HERO and not F_POLAR
 SIDE_COS = 1e-7     # _nearest: a departure from a nested shell closer than this (cosine) to its tangent plane is
                     # grazing: its side is not trusted (its other root on that shell is then within ~2 R 1e-7)
 TWO_PI = 2.0 * math.pi
@@ -2111,8 +2114,11 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                     elif dd >= 0:
                         ndep, ex, ey, ez = _deposit(D, dd, dep_idx, dep_w, dep_d, c, ndep, cap, line, led.shape[3], w,
                                                     lx, ly, sx0, sy0, s_f, j, dx, dy, dz, ex, ey, ez, stq, stu, stv)
-                    # the interface: specular R and T, absorbed A
-                    R, T, Ar, Br, xr, yr, At, Bt, xt, yt = _specular(MD, it, o_coat[o], line, ci, m1, m2)
+                    # the interface: specular R and T, absorbed A (HERO_SHARES: from _hero_shares below)
+                    if HERO_SHARES:
+                        R = T = Ar = Br = xr = yr = At = Bt = xt = yt = 0.0
+                    else:
+                        R, T, Ar, Br, xr, yr, At, Bt, xt, yt = _specular(MD, it, o_coat[o], line, ci, m1, m2)
                     Rfr = R     # an IF_FRESNEL boundary's unpolarized R, kept for its slab model's share
                     if F_POLAR:
                         R, T, stq, stu, ex, ey, ez = _interface_frame(it, o_pol, o, s_f, j, dx, dy, dz, nwx, nwy, nwz,
@@ -2131,18 +2137,25 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                                 break
                     gz = False      # HERO: an opaque gate zeroes every line's R and T
                     if F_MAPS and scn > 0 and sp_kind[scf] == SPEC_GATE:
-                        if F_HERO and HK > 0:
+                        if HERO_SHARES:
                             gm_ = sp_map[scf]
                             gz = map_value(map_data, map_off[gm_], map_nlat[gm_], map_nlon[gm_], glat, glon) > 0.5
-                        R, T, scf, scn = _gate(SC, scf, scn, (glat, glon), R, T)
+                            scf += 1        # _gate's: the gate's models where it is 1, clear air elsewhere
+                            scn = scn - 1 if gz else 0
+                        else:
+                            if F_HERO and HK > 0:
+                                gm_ = sp_map[scf]
+                                gz = map_value(map_data, map_off[gm_], map_nlat[gm_], map_nlon[gm_], glat, glon) > 0.5
+                            R, T, scf, scn = _gate(SC, scf, scn, (glat, glon), R, T)
                     # which scatter model applies here: an object's SCATTER specs, tried in order
                     mk = 0
                     cos_i = abs(ci)
                     fm_nee = F_MAPS and nee and _has_fraction_map(SC, scf, scn)
                     if fm_nee:
                         # a ray aimed at a target: the expected value over the map's choice (_nee_map_mix)
-                        R, T = _nee_map_mix(SC, MD, scf, scn, (glat, glon), line, cos_i, (it, m1, m2), R, T,
-                                            Ar + Br * stq if F_POLAR else Rfr)
+                        if not HERO_SHARES:
+                            R, T = _nee_map_mix(SC, MD, scf, scn, (glat, glon), line, cos_i, (it, m1, m2), R, T,
+                                                Ar + Br * stq if F_POLAR else Rfr)
                         sc = -1
                         sc_n = 1
                         sc_tgt = -1
@@ -2153,14 +2166,35 @@ def trace_batch(settings, S, O, SC, MD, D, SRC, T, REC):
                     nvz = nwz if front else -nwz
                     diffuse = 0.0
                     slab_keep = 1.0
-                    if F_HERO and HK > 0:
-                        _hero_shares(HV, HK, SC, MD, (it, m1, m2), o_coat[o], ci, gz, fm_nee, (scf, scn),
+                    if HERO_SHARES:
+                        # every line's shares, the ray's own (its hero's, or its one line's) among them: the
+                        # same calls as below, bit for bit
+                        k1 = HK
+                        h1 = hi
+                        if HK == 0:
+                            HV[H_L, 0] = line
+                            k1 = 1
+                            h1 = 0
+                        _hero_shares(HV, k1, SC, MD, (it, m1, m2), o_coat[o], ci, gz, fm_nee, (scf, scn),
                                      (glat, glon), sc, cos_i, nee)
-                    if F_SCATTER and sc >= 0:
-                        # the model's share of the light (R, T and diffuse); the boundary's Fresnel R first (a slab
-                        # on an index step takes only what the boundary lets in)
-                        R, T, diffuse, slab_keep, mk, Pm = _model_share(SC, MD, sc, line, cos_i, (it, m1, m2), R, T,
-                                                                        Ar + Br * stq if F_POLAR else Rfr, nee)
+                        R = HV[H_R, h1]
+                        T = HV[H_T, h1]
+                        Rfr = HV[H_RF, h1]
+                        if F_SCATTER and sc >= 0:
+                            diffuse = HV[H_D, h1]
+                            slab_keep = HV[H_K, h1]
+                            mk = SC.mod_kind[sc]
+                            Pm = SC.mod_P[sc].T
+                    else:
+                        if F_HERO and HK > 0:
+                            _hero_shares(HV, HK, SC, MD, (it, m1, m2), o_coat[o], ci, gz, fm_nee, (scf, scn),
+                                         (glat, glon), sc, cos_i, nee)
+                        if F_SCATTER and sc >= 0:
+                            # the model's share of the light (R, T and diffuse); the boundary's Fresnel R first (a
+                            # slab on an index step takes only what the boundary lets in)
+                            R, T, diffuse, slab_keep, mk, Pm = _model_share(SC, MD, sc, line, cos_i, (it, m1, m2),
+                                                                            R, T, Ar + Br * stq if F_POLAR else Rfr,
+                                                                            nee)
                     # the rays toward the targets: the chosen model's, or over a fraction map every model's
                     sp, npath = _next_events(stack, sp, npath, led, c, r_imp, (seed, i, ev, path), line, SC, MD,
                                              (scf, scn), (sc, sc_n, sc_tgt, slab_keep), nee, w, nee_cut, o_bc, o_br,
