@@ -6,8 +6,11 @@ faster than the code they compile:
 
 * ``ir_utils.copy_propagate`` (run on every parallel loop's body and by ``simplify``) compares its fixed
   point by ``copy.deepcopy`` of the whole dict of copy sets on every iteration, and its initial kill sets
-  rebuild each block's assigned names once per copy in the function.  The data are sets of (str, str)
-  tuples, so a set copy is the same thing; the kill sets are the same sets.
+  rebuild each block's assigned names once per copy in the function.  The same equations over Python
+  integers used as bit sets (one bit per copy, the kill sets from one mask per variable name) give the same
+  sets; they are turned back into sets of (lhs, rhs) once, at the end.  (Until 2026-12-05 the replacement
+  kept Python sets, copied instead of deep-copied: the Earth's camera kernel compiled in 66 s with it, 60 s
+  with bit sets, where the fixed point had been about a fifth of the compile.)
 * ``analysis.compute_live_map`` (every dead-code removal) iterates two fixed points over Python sets of
   variable names, one set per block, each as large as the function's variables.  The same equations over
   Python integers used as bit sets (one bit per variable) give the same sets, much faster.
@@ -46,53 +49,82 @@ def _hash(fn) -> str:
         return ""
 
 
-def init_copy_propagate_data(blocks, entry, typemap):
-    """Numba's ``init_copy_propagate_data`` with each block's assigned names computed once per block."""
-    from numba.core import ir_utils
-
-    gen_copies, extra_kill = ir_utils.get_block_copies(blocks, typemap)
-    all_copies = set()
-    for label in gen_copies:
-        all_copies |= gen_copies[label]
-    kill_copies = {}
-    for label, gen_set in gen_copies.items():
-        assigned = {lhs for lhs, _rhs in gen_set}
-        ek = extra_kill[label]
-        kill_copies[label] = {(lhs, rhs) for lhs, rhs in all_copies
-                              if lhs in ek or rhs in ek
-                              or ((lhs, rhs) not in gen_set and (lhs in assigned or rhs in assigned))}
-    in_copies = {label: all_copies.copy() for label in blocks}
-    in_copies[entry] = set()
-    out_copies = {}
-    for label in blocks:
-        out_copies[label] = gen_copies[label] | (in_copies[label] - kill_copies[label])
-    out_copies[entry] = gen_copies[entry]
-    return gen_copies, all_copies, kill_copies, in_copies, out_copies
-
-
 def copy_propagate(blocks, typemap):
     """Numba's ``copy_propagate`` (fixed point of in_b = intersect(out of predecessors), out_b = gen_b |
-    (in_b - kill_b)), comparing iterations by set copies instead of deep copies."""
+    (in_b - kill_b), iterated over the blocks in order until a pass changes nothing), computed on bit sets: one
+    bit per copy (lhs, rhs) of the function, a Python integer per block.  The kill sets are init_copy_propagate_data's
+    (a copy is killed in a block where its lhs or rhs is in extra_kill, or is assigned there by another copy),
+    built from one mask per variable name.  Returns the same dicts of sets of (lhs, rhs)."""
+    from numba.core import ir_utils
     from numba.core.analysis import compute_cfg_from_blocks
 
     cfg = compute_cfg_from_blocks(blocks)
     entry = cfg.entry_point()
-    gen_copies, _all, kill_copies, in_copies, out_copies = init_copy_propagate_data(blocks, entry, typemap)
+    gen_copies, extra_kill = ir_utils.get_block_copies(blocks, typemap)
+    copies = []
+    index = {}
+    for label in gen_copies:
+        for c in gen_copies[label]:
+            if c not in index:
+                index[c] = len(copies)
+                copies.append(c)
+    masks = {}      # variable name -> the copies it takes part in
+    for k, (lhs, rhs) in enumerate(copies):
+        b = 1 << k
+        masks[lhs] = masks.get(lhs, 0) | b
+        if rhs != lhs:
+            masks[rhs] = masks.get(rhs, 0) | b
+    gen = {}
+    kill = {}
+    for label, gen_set in gen_copies.items():
+        g = 0
+        for c in gen_set:
+            g |= 1 << index[c]
+        ek = 0
+        for v in extra_kill[label]:
+            ek |= masks.get(v, 0)
+        assigned = 0
+        for lhs in {lhs for lhs, _rhs in gen_set}:
+            assigned |= masks.get(lhs, 0)
+        gen[label] = g
+        kill[label] = ek | (assigned & ~g)
+    full = (1 << len(copies)) - 1
+    in_b = {label: full for label in blocks}
+    in_b[entry] = 0
+    out_b = {label: gen[label] | (in_b[label] & ~kill[label]) for label in blocks}
+    out_b[entry] = gen[entry]
     preds = {label: [p for p, _d in cfg.predecessors(label)] for label in blocks if label != entry}
-    old_point = None
-    new_point = {k: set(v) for k, v in out_copies.items()}
-    while old_point != new_point:
+    changed = True
+    while changed:
+        changed = False
         for label in blocks:
             if label == entry:
                 continue
             predecs = preds[label]
-            in_copies[label] = out_copies[predecs[0]].copy()
+            x = out_b[predecs[0]]
             for p in predecs:
-                in_copies[label] &= out_copies[p]
-            out_copies[label] = gen_copies[label] | (in_copies[label] - kill_copies[label])
-        old_point = new_point
-        new_point = {k: set(v) for k, v in out_copies.items()}
-    return in_copies, out_copies
+                x &= out_b[p]
+            in_b[label] = x
+            o = gen[label] | (x & ~kill[label])
+            if o != out_b[label]:
+                out_b[label] = o
+                changed = True
+    return _as_sets(in_b, copies), _as_sets(out_b, copies)
+
+
+def _as_sets(bits: dict, copies: list) -> dict:
+    """label -> bit set, as label -> set of the copies (lhs, rhs) whose bits are set."""
+    import numpy as np
+
+    nbytes = (len(copies) + 7) // 8
+    out = {}
+    for label, x in bits.items():
+        if x == 0:
+            out[label] = set()
+            continue
+        on = np.flatnonzero(np.unpackbits(np.frombuffer(x.to_bytes(nbytes, "little"), np.uint8), bitorder="little"))
+        out[label] = {copies[k] for k in on.tolist()}
+    return out
 
 
 def compute_live_map(cfg, blocks, var_use_map, var_def_map):
@@ -192,10 +224,9 @@ def install() -> list:
     if (_hash(ir_utils.copy_propagate) == KNOWN["copy_propagate"]
             and _hash(ir_utils.init_copy_propagate_data) == KNOWN["init_copy_propagate_data"]
             and parfor.copy_propagate is ir_utils.copy_propagate):
+        # (init_copy_propagate_data's hash too: copy_propagate computes its kill sets, and nothing else calls it)
         _ORIGINAL["copy_propagate"] = ir_utils.copy_propagate
-        _ORIGINAL["init_copy_propagate_data"] = ir_utils.init_copy_propagate_data
         ir_utils.copy_propagate = copy_propagate
-        ir_utils.init_copy_propagate_data = init_copy_propagate_data
         parfor.copy_propagate = copy_propagate
         installed.append("copy_propagate")
     if _hash(analysis.compute_live_map) == KNOWN["compute_live_map"]:
