@@ -113,3 +113,73 @@ def test_only_a_trace_with_hero_wavelengths_compiles_their_code(image, pupil, he
     assert [f.hero for f in feats] == list(hero) and all(f.camera for f in feats)
     assert (feats[0].key() == feats[1].key()) == (hero[0] == hero[1])
     assert [specialize.kernel_module(f).F_HERO for f in feats] == list(hero)
+
+
+# A scattering scene for the shares of a hit (R, T, diffuse, slab keep): a Lambertian ground, an atmosphere shell on
+# an index step whose fraction map picks a cloud slab (HG) over a Rayleigh slab, and a gated shell above (OPAQUE
+# WHERE), every model sending rays TOWARD a far disk, so that both a scattered ray's and a ray aimed at the target's
+# shares (the fraction map in expectation, _nee_map_mix) are taken at every kind of hit.
+SHARES_SCRIPT = """UNITS KM
+WAVELENGTHS 450 650 NM
+SEED 9
+MEDIUM gas INDEX 1.0003 1.0002
+MODEL ground LAMBERTIAN 0.3
+MODEL air RAYLEIGH TAU 0.2 0.05 ALBEDO 1
+MODEL cloud HG G 0.85 TAU 5 ALBEDO 0.999 ORDERS 4
+MAP frac LATLON '{frac}'
+MAP gate LATLON '{gate}'
+SURFACE
+  SPHERE 0 0 0 6000
+OBJECT ground
+  INTERFACE ABSORB
+  SCATTER MODEL ground TOWARD target
+SURFACE
+  SPHERE 0 0 0 6100
+OBJECT shell
+  INTERFACE TRANSMIT gas AIR
+  SCATTER MAP frac MODELS cloud TOWARD target
+  SCATTER MODEL air TOWARD target
+SURFACE
+  SPHERE 0 0 0 6200
+OBJECT veil
+  INTERFACE TRANSMIT AIR AIR
+  OPAQUE WHERE gate FROM 0.5 TO 1.5
+  SCATTER MODEL ground TOWARD target
+SURFACE
+  PLANE X 1e6 RECT 2000 2000
+OBJECT target
+  INTERFACE ABSORB
+  DETECTOR PIXELS 5 5
+GRID RECT X 7000 -6300 6300 -6300 6300 20000 1 RANDOM
+SOURCE DIRECTION -1 0 0
+FLUX TOTAL 1 W
+LEVEL 12
+HALT 0.05
+TRACE
+"""
+
+
+def test_one_line_rays_of_a_hero_kernel_take_the_scalar_shares(tmp_path, monkeypatch):
+    """A kernel with hero wavelengths (the all-features kernel of a scene without polarization) takes every hit's
+    shares from _hero_shares, a one-line ray's as a block of one (docs/architecture.md, "One set of shares per
+    hit"); the specialized kernel of this scene has no HERO code and computes them as before.  Both must make the
+    same decisions on the same random numbers: the ledger and the target's image agree to rounding (a wrong share
+    would change decisions and move them by far more).  A regression guard of the kernel's bookkeeping, not a
+    physics oracle (the physics tests run on the all-features kernel, so on the new path)."""
+    frac = np.array([[0.2, 0.7, 0.5, 0.9], [0.6, 0.3, 0.8, 0.4]])
+    gate = np.zeros((2, 4))
+    gate[:, 1] = 1.0
+    np.save(tmp_path / "frac.npy", frac)
+    np.save(tmp_path / "gate.npy", gate)
+    scene = _scene(SHARES_SCRIPT.format(frac=tmp_path / "frac.npy", gate=tmp_path / "gate.npy"))
+    feats = pack(scene).features
+    assert feats.maps and feats.scatter and feats.importance and feats.refract and not feats.hero
+    monkeypatch.setenv("IRT_KERNEL_FEATURES", "all")
+    assert specialize.kernel_module(feats).HERO_SHARES          # the one-line rays' shares from _hero_shares
+    monkeypatch.setenv("IRT_KERNEL_FEATURES", "specialized")
+    assert not specialize.kernel_module(feats).HERO_SHARES      # the scalar code
+    a = _trace(scene, monkeypatch, "specialized")
+    b = _trace(scene, monkeypatch, "all")
+    assert b.ledger[:, 3].sum() > 0 and b.images["target"][0].sum() > 0   # scattered, and the target lit
+    np.testing.assert_allclose(a.ledger, b.ledger, rtol=1e-12, atol=1e-18)
+    np.testing.assert_allclose(a.images["target"][0], b.images["target"][0], rtol=1e-12, atol=1e-24)
