@@ -268,8 +268,8 @@ class Accumulator:
         self.ctx = ctx
         self.ledger = np.zeros((ctx.rows, 5, ctx.L))
         self.ledger_sq = np.zeros((ctx.rows, ctx.L))
-        self.img = np.zeros(int(sum(ctx.i_sizes)))
-        self.img_sq = np.zeros_like(self.img)
+        self.img = np.zeros(int(sum(ctx.i_sizes)))      # np.zeros, not zeros_like: pages a batch never touches
+        self.img_sq = np.zeros(int(sum(ctx.i_sizes)))   # stay unmapped (a star on 1024^2 x 38 lines: 318 MB)
         self.rec_parts: list[dict] = []
         self.done = 0
 

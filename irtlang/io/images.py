@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import atomic_path, write_bytes, write_text
+from .atomic import atomic_path, write_text
 
 
 def write_image(path: Path, img: np.ndarray, *, sum2=None, extent=None, wavelengths_nm=None,
@@ -47,9 +47,17 @@ def write_image(path: Path, img: np.ndarray, *, sum2=None, extent=None, waveleng
                     np.save(fh, stderr)
             written.append(sp)
     elif ext in (".fits", ".fit"):
-        write_bytes(path, fits_bytes(img, stderr, extent, wavelengths_nm, length_unit, bands=bands,
-                                     focal_length_m=focal_length_m, provenance=provenance, object_name=object_name,
-                                     bunit=quantity[1] if quantity else "" if psf else "W"))
+        parts = fits_parts(img, stderr, extent, wavelengths_nm, length_unit, bands=bands,
+                           focal_length_m=focal_length_m, provenance=provenance, object_name=object_name,
+                           bunit=quantity[1] if quantity else "" if psf else "W")
+        with atomic_path(path) as tmp:
+            with open(tmp, "wb") as fh:
+                buf = None
+                for part in parts:
+                    if isinstance(part, bytes):
+                        fh.write(part)
+                    else:
+                        buf = part.write(fh, buf)
     elif ext == ".png":
         if quantity:       # a flux-like quantity (Stokes Q, U, V) sums over the planes, a map shows its first
             _png(path, img if quantity[2] else img[:1], extent, length_unit, label=quantity[0])
@@ -95,9 +103,28 @@ def _block(cards: list[bytes]) -> bytes:
     return data + b" " * (-len(data) % 2880)
 
 
-def _data(a: np.ndarray) -> bytes:
-    raw = a.astype(">f8").tobytes()
-    return raw + b"\0" * (-len(raw) % 2880)
+def _data(a: np.ndarray) -> list:
+    """An image's data units: its planes (big-endian when written, one at a time) and the padding."""
+    a = np.asarray(a)
+    return [_BigEndian(p) for p in (a if a.ndim >= 3 else [a])] + [b"\0" * (-(a.size * 8) % 2880)]
+
+
+class _BigEndian:
+    """One plane of a cube, converted to big-endian when it is written (no copy of the whole cube)."""
+
+    def __init__(self, plane):
+        self.plane = np.asarray(plane)
+
+    def __bytes__(self) -> bytes:
+        return np.ascontiguousarray(self.plane, dtype=">f8").tobytes()
+
+    def write(self, fh, buf=None):
+        """Write the plane through `buf` (a big-endian scratch plane, reused from the last call when it fits)."""
+        if buf is None or buf.shape != self.plane.shape:
+            buf = np.empty(self.plane.shape, ">f8")
+        np.copyto(buf, self.plane)
+        fh.write(buf.data if buf.ndim else bytes(buf))
+        return buf
 
 
 def _wcs_cards(shape, extent, wavelengths_nm, length_unit, bands, focal_length_m) -> list[bytes]:
@@ -146,9 +173,16 @@ def _wcs_cards(shape, extent, wavelengths_nm, length_unit, bands, focal_length_m
     return cards
 
 
-def fits_bytes(img, stderr, extent, wavelengths_nm, length_unit, *, bands=None, focal_length_m=None,
-               provenance=None, object_name=None, bunit: str = "W") -> bytes:
+def fits_bytes(img, stderr, extent, wavelengths_nm, length_unit, **kw) -> bytes:
     """A FITS file (primary image, optional STDERR extension) by the FITS 4.0 standard, no dependencies."""
+    return b"".join(p if isinstance(p, bytes) else bytes(p)
+                    for p in fits_parts(img, stderr, extent, wavelengths_nm, length_unit, **kw))
+
+
+def fits_parts(img, stderr, extent, wavelengths_nm, length_unit, *, bands=None, focal_length_m=None,
+               provenance=None, object_name=None, bunit: str = "W") -> list:
+    """`fits_bytes`'s pieces in file order (header blocks as bytes, data as big-endian arrays), to be written one
+    after the other: a cube of hundreds of MB is not joined into one bytes object."""
     import datetime as _dt
 
     L, ny, nx = img.shape
@@ -180,12 +214,12 @@ def fits_bytes(img, stderr, extent, wavelengths_nm, length_unit, *, bands=None, 
                 v = Path(str(v)).name
             cards.append(_card(key, v, comment))
     cards.append(_card("EXTNAME", "FLUX"))
-    out = _block(cards) + _data(img)
+    out = [_block(cards)] + _data(img)
     if stderr is not None:
         ext = [_card("XTENSION", "IMAGE"), _card("BITPIX", -64), _card("NAXIS", 3), _card("NAXIS1", nx),
                _card("NAXIS2", ny), _card("NAXIS3", L), _card("PCOUNT", 0), _card("GCOUNT", 1),
                _card("EXTNAME", "STDERR"), _card("BUNIT", "W", "Monte Carlo standard error per pixel")] + wcs
-        out += _block(ext) + _data(stderr)
+        out += [_block(ext)] + _data(stderr)
     return out
 
 

@@ -52,7 +52,11 @@ class RunFolder:
 
     def record(self, path: Path, kind: str) -> None:
         path = Path(path)
-        digest = hashlib.sha256(path.read_bytes()).hexdigest()
+        h = hashlib.sha256()
+        with open(path, "rb") as fh:      # in blocks: an image cube can be 600 MB
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                h.update(block)
+        digest = h.hexdigest()
         try:
             name = str(path.relative_to(self.root))
         except ValueError:

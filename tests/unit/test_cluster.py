@@ -264,8 +264,11 @@ def _killing_runner(client, runner):
         for i, t in enumerate(runner(ctx, units)):
             if i == 0:
                 t0 = time.monotonic()
+                # (a generous limit: the loop ends as soon as nothing is in flight, but under a loaded machine, e.g.
+                # the other test worker compiling a kernel, the units in flight took over 30 s once and none was
+                # held yet when the victim was chosen)
                 while any(str(k).startswith("irt-batch") for ks in client.processing().values() for k in ks) \
-                        and time.monotonic() - t0 < 30:
+                        and time.monotonic() - t0 < 240:
                     time.sleep(0.05)
                 held = {w: [k for k in ks if str(k).startswith("irt-batch")] for w, ks in client.has_what().items()}
                 victim = max(held, key=lambda w: len(held[w]))
