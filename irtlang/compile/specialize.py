@@ -151,11 +151,15 @@ def _kernel_dir() -> Path:
     return d
 
 
+_NOT_IN_THE_KERNEL = ("reduce.py", "spline.py")      # modules of kernels/ that trace_kernel never imports
+
+
 def kernel_sources() -> list:
     """Every source a generated kernel depends on: kernels/ and the scatter-model, surface and source plugins;
-    not kernels/reduce.py, which the trace kernel does not use (editing it recompiles only itself)."""
+    not kernels/reduce.py and kernels/spline.py, which the trace kernel does not use (editing one recompiles only
+    itself)."""
     root = Path(__file__).resolve().parents[1]
-    kernels = [p for p in sorted((root / "kernels").glob("*.py")) if p.name != "reduce.py"]
+    kernels = [p for p in sorted((root / "kernels").glob("*.py")) if p.name not in _NOT_IN_THE_KERNEL]
     return kernels + [p for sub in ("bsdfs", "surfaces", "sources") for p in sorted((root / "plugins" / sub).glob("*.py"))]
 
 

@@ -208,12 +208,12 @@ class MonoPSF:
     def density(self, x, y) -> np.ndarray:
         """PSF energy per unit area (1/m^2) at detector offsets (x, y) from p_ref (any matching shapes): cubic
         spline through the FFT samples; 0 outside the kept window."""
-        from ..kernels.spline import spline3_affine
+        from ..kernels.spline import spline3_affine, spline_filter3
 
         x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
         shape = x.shape
         if self._spline is None:
-            self._spline = np.ascontiguousarray(ndimage.spline_filter(self.intensity, order=3, mode="mirror"))
+            self._spline = spline_filter3(np.ascontiguousarray(self.intensity, float))   # ndimage.spline_filter's
         cell = self.wavelength ** 2 / (self.M * self.M * self.dx * self.dy * abs(np.linalg.det(self.J)))
         jt = self.J.T
         out = np.empty(x.size)

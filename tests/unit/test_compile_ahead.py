@@ -277,12 +277,12 @@ def test_irt_warmup_compiles_what_is_missing_and_reports_each_kernel(tmp_path, m
 
 
 def test_the_kernels_source_hash_leaves_out_the_reduction():
-    """A generated kernel's name hashes the sources it depends on; reduce.py is not one of them (an edit there
-    need not recompile every trace kernel), the template and its imports are."""
+    """A generated kernel's name hashes the sources it depends on; reduce.py and spline.py (the PSF's spline) are
+    not among them (an edit there need not recompile every trace kernel), the template and its imports are."""
     from irtlang.compile.specialize import kernel_sources
 
     names = {(p.parent.name, p.name) for p in kernel_sources()}
-    assert ("kernels", "reduce.py") not in names
+    assert ("kernels", "reduce.py") not in names and ("kernels", "spline.py") not in names
     for must in [("kernels", "trace_kernel.py"), ("kernels", "geometry.py"), ("kernels", "rng.py"),
                  ("kernels", "layout.py"), ("bsdfs", "lambertian.py"), ("surfaces", "__init__.py"),
                  ("sources", "__init__.py")]:
