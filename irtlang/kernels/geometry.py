@@ -75,7 +75,14 @@ A ray leaving a surface starts (to rounding) on it. The hit routines return both
    the origin itself, then apply rule 1 to the other. This stays right at grazing departures, where the
    origin's rounding (~eps |o|) divided by the grazing angle can push the "zero" root past any tmin.
 Thanks to the citardauq roots, the *other* root of the surface just left keeps full accuracy (the far side
-of a sphere, the second crossing of a paraboloid).
+of a sphere, the second crossing of a paraboloid) -- except near tangency, where both roots crowd at 0 and the
+discriminant's rounding (~eps R^2) puts them ~sqrt(eps) R apart: a ray leaving a sphere or an ellipsoid at
+grazing incidence found its own surface again ~1e-8 R ahead (9 cm on the Earth's shells, far beyond tmin), was
+reflected or scattered there again, and crawled along the surface (up to the event limit in the stress test of
+tests/stress/test_stress_grazing.py).  Spheres and ellipsoids therefore take the other root of a ray that starts
+on them in closed form, ``t = -2 (o . d) / |d|^2`` (``leaving_sphere_root``; an ellipsoid in its scaled frame),
+whose error is that of o . d (~eps R), not its square root: a ray leaving outward or along a tangent meets the
+surface no more.
 """
 import math
 
@@ -113,6 +120,8 @@ __all__ = [
     "dir_to_world",
     "self_hit_tmin",
     "drop_leaving_root",
+    "leaving_sphere_root",
+    "leaving_ellipsoid_root",
     "first_after",
     "solve_quadratic",
     "normalize3",
@@ -744,6 +753,26 @@ def drop_leaving_root(t1, t2):
     if abs(t1) <= abs(t2):
         return t2, INF
     return t1, INF
+
+
+@numba.njit(cache=True, fastmath=False)
+def leaving_sphere_root(ox, oy, oz, dx, dy, dz):
+    """For a ray that starts on a sphere centred at the origin: its other crossing, -2 (o . d) / |d|^2, as
+    (t, inf), or (inf, inf) when the ray leaves outward or along a tangent (see the module docstring)."""
+    a = dx * dx + dy * dy + dz * dz
+    b = ox * dx + oy * dy + oz * dz
+    if not (b < 0.0) or a == 0.0 or not math.isfinite(a):
+        return INF, INF
+    return _finite_or_inf(-2.0 * b / a), INF
+
+
+@numba.njit(cache=True, fastmath=False)
+def leaving_ellipsoid_root(ox, oy, oz, dx, dy, dz, a, b, c):
+    """leaving_sphere_root for the ellipsoid x^2/a^2 + y^2/b^2 + z^2/c^2 = 1, in its scaled frame."""
+    ia = 1.0 / a
+    ib = ia if b == a else 1.0 / b
+    ic = ia if c == a else 1.0 / c
+    return leaving_sphere_root(ox * ia, oy * ib, oz * ic, dx * ia, dy * ib, dz * ic)
 
 
 @numba.njit(cache=True, fastmath=False)

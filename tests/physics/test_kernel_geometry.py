@@ -402,6 +402,47 @@ def test_sphere_leaving_surface():
         assert t2 == pytest.approx(chord, rel=1e-12)
 
 
+def test_leaving_root_of_spheres_and_ellipsoids_at_grazing_departures():
+    """A ray that starts on a sphere and leaves it at angle theta to the tangent plane (inward > 0): the closed
+    form of the chord, 2 R sin(theta), is the oracle; outward and tangent departures meet the sphere no more.
+    The quadratic's roots at such a start (hit_sphere) are ~sqrt(eps) R apart by the rounding of the discriminant,
+    which for theta = 1e-9 made a spurious hit ~1e-8 R ahead (tests/stress/test_stress_grazing.py's crawling
+    rays); the closed form's error is eps R.  Ellipsoids: the root lies on the surface and is positive exactly
+    when the ray leaves inward."""
+    rng = np.random.default_rng(12)
+    for _ in range(400):
+        R = 10 ** rng.uniform(-6, 7)
+        u = rng.normal(size=3)
+        u /= np.linalg.norm(u)
+        t = np.cross(u, rng.normal(size=3))
+        t /= np.linalg.norm(t)
+        p = R * u
+        for th in (1e-12, 1e-9, 1e-6, 0.3, 1.5, 0.0, -1e-9, -0.3):
+            d = math.cos(th) * t - math.sin(th) * u
+            t1, t2 = G.leaving_sphere_root(*p, *d)
+            assert t2 == np.inf
+            if th > 0:
+                assert t1 == pytest.approx(2 * R * math.sin(th), rel=1e-6, abs=8 * EPS * R)
+            else:       # tangent or outward: nothing ahead beyond rounding, nothing beyond the self-hit tolerance
+                assert t1 == np.inf or t1 <= 8 * EPS * R
+                assert not (G.self_hit_tmin(*p, *d, R) < t1 < np.inf)
+    a, b, c = 10.0, 6.0, 3.0
+    for _ in range(400):
+        u = rng.normal(size=3)
+        u /= np.linalg.norm(u)
+        p = u * np.array([a, b, c])
+        n = G.ellipsoid_normal(*p, a, b, c)
+        d = rng.normal(size=3)
+        d /= np.linalg.norm(d)
+        t1, t2 = G.leaving_ellipsoid_root(*p, *d, a, b, c)
+        assert t2 == np.inf
+        if np.dot(d, n) < -1e-6:
+            q = p + t1 * d
+            assert t1 > 0 and abs((q[0] / a) ** 2 + (q[1] / b) ** 2 + (q[2] / c) ** 2 - 1) < 1e-12
+        elif np.dot(d, n) > 1e-6:
+            assert t1 == np.inf
+
+
 def test_ellipsoid():
     a, b, c = 1.0, 2.0, 3.0
     assert G.hit_ellipsoid(0.0, 0.0, -10.0, 0.0, 0.0, 1.0, a, b, c) == pytest.approx((7.0, 13.0), rel=1e-15)

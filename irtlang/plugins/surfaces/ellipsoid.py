@@ -10,7 +10,7 @@ normal pointing outward.
 """
 import numba
 
-from ...kernels.geometry import drop_leaving_root, ellipsoid_normal, hit_ellipsoid
+from ...kernels.geometry import ellipsoid_normal, hit_ellipsoid, leaving_ellipsoid_root
 from ...kernels.layout import SF_PAR
 from ...lang.spec import Clause, Form, V, Vs, positive
 from ...core.units import LENGTH
@@ -44,9 +44,10 @@ def size(s: Surface) -> float:
 
 @numba.njit(cache=True, inline="always")
 def hit(f, si, S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
+    if leaving:     # the other crossing in closed form (kernels/geometry.py, "Self-intersection policy")
+        t1, t2 = leaving_ellipsoid_root(ox, oy, oz, dx, dy, dz, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_PAR + 2])
+        return t1, t2, -1
     t1, t2 = hit_ellipsoid(ox, oy, oz, dx, dy, dz, f[j, SF_PAR], f[j, SF_PAR + 1], f[j, SF_PAR + 2])
-    if leaving:
-        t1, t2 = drop_leaving_root(t1, t2)
     return t1, t2, -1
 
 

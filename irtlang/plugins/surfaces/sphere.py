@@ -9,7 +9,7 @@ A full sphere, normal pointing outward.
 """
 import numba
 
-from ...kernels.geometry import drop_leaving_root, hit_sphere, sphere_normal
+from ...kernels.geometry import hit_sphere, leaving_sphere_root, sphere_normal
 from ...kernels.layout import SF_PAR
 from ...lang.spec import Form, V, positive
 from ...core.units import LENGTH
@@ -41,9 +41,10 @@ def size(s: Surface) -> float:
 
 @numba.njit(cache=True, inline="always")
 def hit(f, si, S, j, ox, oy, oz, dx, dy, dz, tmin, leaving):
+    if leaving:     # the other crossing in closed form (kernels/geometry.py, "Self-intersection policy")
+        t1, t2 = leaving_sphere_root(ox, oy, oz, dx, dy, dz)
+        return t1, t2, -1
     t1, t2 = hit_sphere(ox, oy, oz, dx, dy, dz, f[j, SF_PAR])
-    if leaving:
-        t1, t2 = drop_leaving_root(t1, t2)
     return t1, t2, -1
 
 
