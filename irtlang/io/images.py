@@ -123,7 +123,7 @@ class _BigEndian:
         if buf is None or buf.shape != self.plane.shape:
             buf = np.empty(self.plane.shape, ">f8")
         np.copyto(buf, self.plane)
-        fh.write(buf.data if buf.ndim else bytes(buf))
+        fh.write(buf.data)
         return buf
 
 
