@@ -14,8 +14,10 @@ The fit (:func:`fit_spacing`), per spacing s_k:
    variance, estimated from its few samples, is itself noisy and correlated with the pixel's value, and a
    per-pixel chi2 weights the pixels that came out low too much (on the Earth demo it pulled the answer 11 um
    low with a reduced chi2 of 1.24); a block of 16 pixels has a stable variance (reduced chi2 1.04).  The blur
-   the study resolves, 1.5 px per 10 um, survives 4 px blocks because every block shares in it.  ``a_k`` is the
-   scale that
+   the study resolves, 1.5 px per 10 um, survives 4 px blocks because every block shares in it.  Along the limb
+   a block holds few paths, and its variance estimate can still come out far too small when two rays of a pair
+   agree by chance; every block's variance is therefore raised to at least half of what its frame's blocks of
+   the same flux typically show (:func:`floored_variance`; ``variance_floor``).  ``a_k`` is the scale that
    minimises it (weighted least squares, one re-weighting; ``free_scale=False`` keeps a_k = 1): an observation's
    calibration never matches a simulation's to the per cent, and a defocus moves light without changing its sum;
 2. the parabola through the smallest chi2 and its two neighbours: its vertex is the best spacing s0;
@@ -55,7 +57,8 @@ import numpy as np
 from ._common import AnalysisError
 
 __all__ = ["paraxial_refocus_mm", "sweep_files", "load_frame", "study_region", "mismatch", "bin_frame",
-           "three_point_vertex", "fit_spacing", "limb_regions", "despace_study"]
+           "three_point_vertex", "fit_spacing", "limb_regions", "despace_study", "typical_variance",
+           "floored_variance"]
 
 _SWEEP_NAME = re.compile(r"^spacing_([+-]?\d+(?:\.\d*)?)um\.npy$")
 
@@ -142,16 +145,69 @@ def study_region(observed, models, *, threshold=0.02, margin=12):
     return lit
 
 
-def mismatch(observed, obs_se, model, model_se, region, *, free_scale=True):
+def mismatch(observed, obs_se, model, model_se, region, *, free_scale=True, variance_floor=0.0):
     """chi2 of the observation against one model over the region, with the best scale (see the module).
 
-    Signature: ``mismatch(observed, obs_se, model, model_se, region, *, free_scale=True) -> (chi2, dof, scale)``.
+    Signature: ``mismatch(observed, obs_se, model, model_se, region, *, free_scale=True, variance_floor=0.0) ->
+    (chi2, dof, scale)``.  ``variance_floor``: each frame's variances are raised to at least this fraction of
+    what the frame's pixels of the same flux typically show (:func:`floored_variance`).
     """
     o = observed[region]
     vo = obs_se[region] ** 2 if obs_se is not None else np.zeros_like(o)
     vm = model_se[region] ** 2 if model_se is not None else np.zeros_like(o)
-    chi2, used, a = _chi2(o, vo, model[region], vm, free_scale)
+    m = model[region]
+    if variance_floor > 0:
+        vo = floored_variance(o, vo, variance_floor)
+        vm = floored_variance(m, vm, variance_floor)
+    chi2, used, a = _chi2(o, vo, m, vm, free_scale)
     return chi2, max(used - (1 if free_scale else 0), 1), a
+
+
+VARIANCE_FLOOR = 0.5
+VARIANCE_BINS = 12
+
+
+def typical_variance(values, variances, bins=VARIANCE_BINS):
+    """(alpha, beta) of the variance a frame's pixels (or blocks) of flux v typically show, alpha v + beta v^2:
+    a non-negative least-squares fit, in relative terms, to the medians of ``bins`` groups of equal count sorted by
+    flux (medians: a lone estimate far below or above its neighbours does not move them).  A Monte Carlo image's
+    variance grows as its flux (a count of paths: alpha) and as its square (the paths' spread of weights: beta).
+    (0, 0) when fewer than two groups have both a flux and a variance.
+
+    Signature: ``typical_variance(values, variances, bins=12) -> (alpha, beta)``.
+    """
+    from scipy.optimize import nnls
+
+    v = np.asarray(values, float).ravel()
+    var = np.asarray(variances, float).ravel()
+    keep = (v > 0) & (var > 0) & np.isfinite(v) & np.isfinite(var)
+    v, var = v[keep], var[keep]
+    if v.size < 2 * bins:
+        return 0.0, 0.0
+    order = np.argsort(v)
+    groups = np.array_split(order, bins)
+    mv = np.array([np.median(v[g]) for g in groups])
+    mvar = np.array([np.median(var[g]) for g in groups])
+    A = np.stack([mv, mv * mv], axis=1) / mvar[:, None]
+    coef, _ = nnls(A, np.ones(bins))
+    return float(coef[0]), float(coef[1])
+
+
+def floored_variance(values, variances, fraction=VARIANCE_FLOOR):
+    """The variances raised to at least ``fraction`` times the typical variance at each one's flux
+    (:func:`typical_variance`).  A camera-side frame's variance comes from its samples' spread (a pixel's pairs of
+    rays): where a block holds a few paths, as along the limb, two of them can agree by chance and the estimate
+    falls far below the truth; chi2 then gives that block a weight out of all proportion (on the Earth demo, one
+    4 x 4 block at the limb with a 1 % standard error made a third of a sweep frame's excess chi2 and moved the fit
+    6 um).  The floor keeps the estimate where it is likely (it rarely touches a well-sampled block: the typical
+    variance is a median, about the estimates' middle) and removes the outliers' weight.
+
+    Signature: ``floored_variance(values, variances, fraction=0.5) -> ndarray``.
+    """
+    variances = np.asarray(variances, float)
+    alpha, beta = typical_variance(values, variances)
+    v = np.clip(np.asarray(values, float), 0.0, None)
+    return np.maximum(variances, fraction * (alpha * v + beta * v * v))
 
 
 def _chi2(o, vo, mo, vm, free_scale):
@@ -193,14 +249,17 @@ def bin_frame(image, stderr, b):
     return s(image), (None if stderr is None else np.sqrt(s(np.asarray(stderr, float) ** 2)))
 
 
-def fit_spacing(observed, obs_se, spacings, models, model_ses, *, free_scale=True, margin=12, region=None, bin=4):
+def fit_spacing(observed, obs_se, spacings, models, model_ses, *, free_scale=True, margin=12, region=None, bin=4,
+                variance_floor=VARIANCE_FLOOR):
     """The best spacing and its uncertainty (see the module).
 
     Signature: ``fit_spacing(observed, obs_se, spacings, models, model_ses, *, free_scale=True, margin=12,
-    region=None, bin=4) -> dict``: ``best_spacing_um``, ``uncertainty_um`` (with its parts ``statistical_um``
-    and ``grid_um``), ``chi2`` (per sweep frame), ``dof``, ``scale``, ``reduced_chi2_min``, ``at_edge``,
-    ``parabola_points``, ``region`` (of the full-resolution frame).  ``bin``: chi2 is taken over bin x bin pixel
-    blocks (see the module).
+    region=None, bin=4, variance_floor=0.5) -> dict``: ``best_spacing_um``, ``uncertainty_um`` (with its parts
+    ``statistical_um`` and ``grid_um``), ``chi2`` (per sweep frame), ``dof``, ``scale``, ``reduced_chi2_min``,
+    ``at_edge``, ``parabola_points``, ``region`` (of the full-resolution frame), ``variance_floor``.  ``bin``:
+    chi2 is taken over bin x bin pixel blocks (see the module); ``variance_floor``: each frame's block variances
+    are raised to at least this fraction of its typical variance at their flux (:func:`floored_variance`; 0: the
+    frames' own variances as they are).
     """
     observed = np.asarray(observed, float)
     spacings = np.asarray(spacings, float)
@@ -221,7 +280,8 @@ def fit_spacing(observed, obs_se, spacings, models, model_ses, *, free_scale=Tru
         region = study_region(observed, models, margin=margin)
     o, ose = bin_frame(observed, obs_se, bin)
     breg = bin_frame(region.astype(float), None, bin)[0] > 0
-    rows = [mismatch(o, ose, *bin_frame(np.asarray(m, float), se, bin), breg, free_scale=free_scale)
+    rows = [mismatch(o, ose, *bin_frame(np.asarray(m, float), se, bin), breg, free_scale=free_scale,
+                     variance_floor=float(variance_floor))
             for m, se in zip(models, model_ses)]
     chi2 = np.array([r[0] for r in rows])
     dof = rows[0][1]
@@ -242,7 +302,7 @@ def fit_spacing(observed, obs_se, spacings, models, model_ses, *, free_scale=Tru
     return {"best_spacing_um": float(best), "uncertainty_um": math.hypot(stat, grid), "statistical_um": stat,
             "grid_um": grid, "chi2": chi2.tolist(), "dof": int(dof), "scale": [r[2] for r in rows],
             "reduced_chi2_min": red, "uncertainty_factor": factor, "at_edge": bool(at_edge),
-            "parabola_points": [lo, lo + 3], "region": region, "bin": bin}
+            "parabola_points": [lo, lo + 3], "region": region, "bin": bin, "variance_floor": float(variance_floor)}
 
 
 def limb_regions(image, *, n_regions=8, region=16, smooth=1.5):
@@ -343,7 +403,9 @@ def despace_study(observed, sweep, *, design=None, truth=None, free_scale=True, 
         "best_spacing_um": fit["best_spacing_um"], "uncertainty_um": fit["uncertainty_um"],
         "refocus_mm": refocus, "refocus_uncertainty_mm": refocus_unc,
         "method": (f"chi2 of the observation against each sweep frame in {bin} x {bin} pixel blocks over the lit "
-                   f"disk and a {margin} px margin ({int(fit['region'].sum())} px), both frames' standard errors, "
+                   f"disk and a {margin} px margin ({int(fit['region'].sum())} px), both frames' standard errors "
+                   f"(each block's variance at least {fit['variance_floor']:g} x its frame's typical variance at "
+                   "its flux), "
                    + ("a free scale per frame; " if free_scale else "no scale; ")
                    + "vertex of the parabola through the smallest chi2 and its two neighbours; uncertainty: where "
                    f"that parabola rises by {fit['uncertainty_factor']:.3g} (1 x max(1, reduced chi2 at the "

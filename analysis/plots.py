@@ -295,7 +295,7 @@ def plot_despace_curve(result, path):
         ax.axvline(result["truth_um"], color="C2", ls="--", label=f"twin traced at {result['truth_um']:+.2f} um")
     ax.set_xlabel("change of the mirror spacing [um]")
     ax.set_ylabel("chi2 / dof (observation vs simulation)")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper center")      # the curve is a valley: its top middle is empty
     ax.set_title("mismatch")
     slope = np.array([r["esf_slope_per_px"] for r in table])
     bx.plot(s, slope, "o-", color="k", label="simulation (median over the limb regions)")
