@@ -803,7 +803,8 @@ class Engine:
                 return
             self._write_image(step.params["file"], img, "image", extent=(x0, x1, y0, y1), sum2=img2,
                               per_line=filters is None, name=obj.name, bands=bands, interp=interp,
-                              kind_label="image_diffraction" if step.params.get("diffraction") else "image")
+                              kind_label="image_diffraction" if step.params.get("diffraction") else "image",
+                              log=bool(step.params.get("log")))
             self.out(f"EXPORT {obj.name}: {img.shape[2]}x{img.shape[1]} pixels x {img.shape[0]} {what}, "
                      f"{img.sum():.6g} W{note} -> {step.params['file']}")
             return
@@ -829,7 +830,7 @@ class Engine:
             img[k] = np.histogram2d(vec[mk, ax[1]], vec[mk, ax[0]], bins=(ny, nx), range=((b0, b1), (a0, a1)), weights=w)[0]
             img2[k] = np.histogram2d(vec[mk, ax[1]], vec[mk, ax[0]], bins=(ny, nx), range=((b0, b1), (a0, a1)), weights=w * w)[0]
         self._write_image(step.params["file"], img, "image", extent=(a0 / f, a1 / f, b0 / f, b1 / f), sum2=img2,
-                          name=obj.name, kind_label="window")
+                          name=obj.name, kind_label="window", log=bool(step.params.get("log")))
         self.out(f"EXPORT {obj.name}: WINDOW grid {nx}x{ny} x {L} lines, {img.sum():.6g} W -> {step.params['file']}")
 
     def do_pst(self, step, interp):
@@ -1011,9 +1012,10 @@ class Engine:
                               kind_label=comp.lower(), quantity=q)
 
     def _write_image(self, rel, img, kind, extent, sum2=None, per_line=True, *, name=None, bands=None,
-                     coord_unit=None, interp=None, kind_label=None, quantity=None):
+                     coord_unit=None, interp=None, kind_label=None, quantity=None, log=False):
         """An image file, and the image for results.nc.  extent in the script's length unit (coord_unit None), or
-        in coord_unit ("1": direction cosines); bands: (filter names, centre wavelengths nm) of the k images."""
+        in coord_unit ("1": direction cosines); bands: (filter names, centre wavelengths nm) of the k images;
+        log: a .png on a logarithmic colour scale (EXPORT ... LOG)."""
         from .io.images import write_image
 
         p = self.folder.output(rel)
@@ -1035,7 +1037,8 @@ class Engine:
         for q in write_image(p, img, sum2=sum2, extent=tuple(mm) if coord_unit is None else extent,
                              wavelengths_nm=lines, length_unit="mm" if coord_unit is None else "direction cosine",
                              bands=bands[0] if bands else None, focal_length_m=focal, provenance=prov,
-                             object_name=name or kind, n_traced=n_tr, psf=kind == "psf", quantity=quantity):
+                             object_name=name or kind, n_traced=n_tr, psf=kind == "psf", quantity=quantity,
+                             log=log):
             self.folder.record(q, kind)
         if self.collector is not None:
             self.collector.add_image(name=name or kind, kind=kind_label or kind, img=img, se=se, extent_mm=tuple(mm),

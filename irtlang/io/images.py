@@ -17,7 +17,7 @@ from .atomic import atomic_path, write_text
 def write_image(path: Path, img: np.ndarray, *, sum2=None, extent=None, wavelengths_nm=None,
                 length_unit: str = "mm", bands=None, focal_length_m: float | None = None, provenance=None,
                 object_name: str | None = None, n_traced: int | None = None, psf: bool = False,
-                quantity: tuple | None = None) -> list[Path]:
+                quantity: tuple | None = None, log: bool = False) -> list[Path]:
     """Write an image file; returns the paths written.  extent (x0, x1, y0, y1) in length_unit; bands: the
     filter names of the k images (DETECTOR FILTERS); focal_length_m: adds the field-angle WCS to a FITS file;
     provenance: FITS header cards (irtlang_version, script_sha256, seed, data_tier, rays_traced, epoch_utc).
@@ -25,7 +25,8 @@ def write_image(path: Path, img: np.ndarray, *, sum2=None, extent=None, waveleng
     total's) when `n_traced` is given, else sqrt(sum2).  `psf`: a normalized PSF (energy fraction per pixel),
     labelled as such (PNG colour bar, CSV column, FITS BUNIT).  `quantity`: (label, FITS BUNIT, additive) of an image
     that is not a plain flux (EXPORT ... STOKES): its PNG's label, and the sum of its planes if additive (Stokes
-    Q, U, V), else the first plane (the degree and angle of polarization)."""
+    Q, U, V), else the first plane (the degree and angle of polarization).  `log`: a .png on a logarithmic colour
+    scale (LOG_DECADES decades below the brightest pixel; the other formats ignore it)."""
     path = Path(path)
     ext = path.suffix.lower()
     img = np.asarray(img, np.float64)
@@ -63,7 +64,7 @@ def write_image(path: Path, img: np.ndarray, *, sum2=None, extent=None, waveleng
             _png(path, img if quantity[2] else img[:1], extent, length_unit, label=quantity[0])
         else:
             _png(path, img, extent, length_unit, label="normalized PSF (energy fraction per pixel)" if psf
-                 else "flux per pixel (W)")
+                 else "flux per pixel (W)", log=log)
     elif ext == ".csv":
         buf = io.StringIO()
         buf.write("line,wavelength_nm,row,col," + (quantity[0].split(" (")[0].replace(" ", "_") if quantity
@@ -223,11 +224,30 @@ def fits_parts(img, stderr, extent, wavelengths_nm, length_unit, *, bands=None, 
     return out
 
 
-def _png(path: Path, img, extent, length_unit, label: str = "flux per pixel (W)") -> None:
+LOG_DECADES = 8     # EXPORT ... LOG: the colour scale's range below the brightest pixel
+
+
+def log_scale(total):
+    """(picture, norm) of EXPORT ... LOG: a logarithmic colour scale from a decade below the faintest lit pixel
+    (so that it is drawn in colour, not in the scale's black; at most LOG_DECADES below the brightest) to the
+    brightest, pixels without light NaN (drawn black); (total, None) when no pixel is lit."""
+    from matplotlib.colors import LogNorm
+
+    top = float(np.max(total)) if np.size(total) else 0.0
+    if not top > 0:
+        return total, None
+    lo = max(0.1 * float(np.min(total[total > 0])), top * 10.0 ** -LOG_DECADES)
+    return np.where(total > 0, total, np.nan), LogNorm(vmin=lo, vmax=top, clip=True)
+
+
+def _png(path: Path, img, extent, length_unit, label: str = "flux per pixel (W)", log: bool = False) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg     # no pyplot: half a second less per run
     from matplotlib.figure import Figure
 
     total = img.sum(axis=0)
+    norm = None
+    if log:
+        total, norm = log_scale(total)
     fig = Figure(figsize=(5, 4.2), dpi=120)
     FigureCanvasAgg(fig)
     ax = fig.subplots()
@@ -239,8 +259,11 @@ def _png(path: Path, img, extent, length_unit, label: str = "flux per pixel (W)"
     else:
         ax.set_xlabel("column (pixel)")
         ax.set_ylabel("row (pixel)")
+    if norm is not None:
+        kw["norm"] = norm
+        ax.set_facecolor("black")
     im = ax.imshow(total, origin="lower", cmap="inferno", aspect="equal", **kw)
-    fig.colorbar(im, ax=ax, label=label)
+    fig.colorbar(im, ax=ax, label=label + (", log scale" if norm is not None else ""))
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, format="png")

@@ -1246,7 +1246,8 @@ def _focus(it, b, st):
 @command("EXPORT", Form((Ref("object", "object"), Path("file")), (
     Clause("DIFFRACTION", (), doc="the detector image convolved with the last PSF's diffraction kernel"),
     Clause("FILTER", (Ref("filter", "spectrum"),), doc="only that filter's image (a DETECTOR with FILTERS)"),
-    Clause("STOKES", (), doc="a polarized trace's I, Q, U, V images and DOLP, AOLP maps (files name_I.ext, ...)"))),
+    Clause("STOKES", (), doc="a polarized trace's I, Q, U, V images and DOLP, AOLP maps (files name_I.ext, ...)"),
+    Clause("LOG", (), doc="a .png picture on a logarithmic colour scale (a ghost or a halo beside its image)"))),
          "analysis", "write the object's image: .fits .png .npy .csv by extension")
 def _export(it, b, st):
     f = b["file"]
@@ -1258,6 +1259,14 @@ def _export(it, b, st):
         if "diffraction" in b:
             raise error(b.span, "EXPORT ... STOKES cannot be combined with DIFFRACTION", "export them separately")
         extra["stokes"] = True
+    if "log" in b:
+        if ext != "png":
+            raise error(b.span, f"EXPORT ... LOG draws a picture, not a '.{ext}' file",
+                        "use a .png file name (the data files keep their values)")
+        if "stokes" in b:
+            raise error(b.span, "EXPORT ... LOG cannot be combined with STOKES (Q, U and V take both signs)",
+                        "export the Stokes images on a linear scale")
+        extra["log"] = True
     if "filter" in b:
         obj = it.state.objects.get(b["object"])
         det = obj.detector if obj is not None else None

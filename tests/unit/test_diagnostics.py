@@ -170,6 +170,8 @@ CASES = [
      "define a source first (GRID + SOURCE, or EMITTING)"),
     ("export-extension", "SURFACE\n  PLANE Z 0 RECT 1 1\nOBJECT fpa\nEXPORT fpa 'image.bmp'\n", 4, 12,
      "EXPORT cannot write '.bmp' files", "use .fits, .png, .npy or .csv"),
+    ("export-log-not-png", "SURFACE\n  PLANE Z 0 RECT 1 1\nOBJECT fpa\nEXPORT fpa 'image.npy' LOG\n", 4, 1,
+     "EXPORT ... LOG draws a picture, not a '.npy' file", "use a .png file name (the data files keep their values)"),
     # ---- control flow and macros
     ("macro-recursive-direct", "MACRO a\n  CALL a\nEND MACRO\nCALL a\n", 2, 3, "recursive MACRO: a -> a", None),
     ("macro-recursive-indirect", "MACRO Vane\n  CALL b\nEND MACRO\nMACRO b\n  CALL vane\nEND MACRO\nCALL vane\n",
