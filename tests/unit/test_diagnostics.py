@@ -172,6 +172,9 @@ CASES = [
      "EXPORT cannot write '.bmp' files", "use .fits, .png, .npy or .csv"),
     ("export-log-not-png", "SURFACE\n  PLANE Z 0 RECT 1 1\nOBJECT fpa\nEXPORT fpa 'image.npy' LOG\n", 4, 1,
      "EXPORT ... LOG draws a picture, not a '.npy' file", "use a .png file name (the data files keep their values)"),
+    ("export-log-stokes", "SURFACE\n  PLANE Z 0 RECT 1 1\nOBJECT fpa\nEXPORT fpa 'image.png' STOKES LOG\n", 4, 1,
+     "EXPORT ... LOG cannot be combined with STOKES (Q, U and V take both signs)",
+     "export the Stokes images on a linear scale"),
     # ---- control flow and macros
     ("macro-recursive-direct", "MACRO a\n  CALL a\nEND MACRO\nCALL a\n", 2, 3, "recursive MACRO: a -> a", None),
     ("macro-recursive-indirect", "MACRO Vane\n  CALL b\nEND MACRO\nMACRO b\n  CALL vane\nEND MACRO\nCALL vane\n",
