@@ -172,7 +172,7 @@ def typical_variance(values, variances, bins=VARIANCE_BINS):
     a non-negative least-squares fit, in relative terms, to the medians of ``bins`` groups of equal count sorted by
     flux (medians: a lone estimate far below or above its neighbours does not move them).  A Monte Carlo image's
     variance grows as its flux (a count of paths: alpha) and as its square (the paths' spread of weights: beta).
-    (0, 0) when fewer than two groups have both a flux and a variance.
+    (0, 0) when fewer than 2 x bins values have both a flux and a variance (no floor then).
 
     Signature: ``typical_variance(values, variances, bins=12) -> (alpha, beta)``.
     """
@@ -198,8 +198,8 @@ def floored_variance(values, variances, fraction=VARIANCE_FLOOR):
     (:func:`typical_variance`).  A camera-side frame's variance comes from its samples' spread (a pixel's pairs of
     rays): where a block holds a few paths, as along the limb, two of them can agree by chance and the estimate
     falls far below the truth; chi2 then gives that block a weight out of all proportion (on the Earth demo, one
-    4 x 4 block at the limb with a 1 % standard error made a third of a sweep frame's excess chi2 and moved the fit
-    6 um).  The floor keeps the estimate where it is likely (it rarely touches a well-sampled block: the typical
+    4 x 4 block at the limb, whose brightest pixel had a 1 % standard error, added 330 to a sweep frame's chi2,
+    about all of that frame's excess, and moved the fit by 7 um).  The floor keeps the estimate where it is likely (it rarely touches a well-sampled block: the typical
     variance is a median, about the estimates' middle) and removes the outliers' weight.
 
     Signature: ``floored_variance(values, variances, fraction=0.5) -> ndarray``.

@@ -26,7 +26,7 @@ def write_image(path: Path, img: np.ndarray, *, sum2=None, extent=None, waveleng
     labelled as such (PNG colour bar, CSV column, FITS BUNIT).  `quantity`: (label, FITS BUNIT, additive) of an image
     that is not a plain flux (EXPORT ... STOKES): its PNG's label, and the sum of its planes if additive (Stokes
     Q, U, V), else the first plane (the degree and angle of polarization).  `log`: a .png on a logarithmic colour
-    scale (LOG_DECADES decades below the brightest pixel; the other formats ignore it)."""
+    scale (:func:`log_scale`; the other formats ignore it)."""
     path = Path(path)
     ext = path.suffix.lower()
     img = np.asarray(img, np.float64)
