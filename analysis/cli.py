@@ -223,7 +223,7 @@ def _cmd_despace(args):
 
     res = despace_study(args.observed, args.sweep, design=args.design, truth=args.truth,
                         free_scale=not args.fixed_scale, margin=args.margin, smooth=args.smooth,
-                        maps=bool(args.plot), bin=args.bin)
+                        maps=bool(args.plot), bin=args.bin, variance_floor=args.variance_floor)
     images = res.pop("_images")
     if args.output:
         from ._common import atomic_path
@@ -366,6 +366,9 @@ def build_parser(subparsers):
     p.add_argument("--fixed-scale", action="store_true", help="no free scale between observation and simulation")
     p.add_argument("--margin", type=int, default=12, help="px around the lit disk in the fit's region (default 12)")
     p.add_argument("--bin", type=int, default=4, help="chi2 over bin x bin pixel blocks (default 4)")
+    p.add_argument("--variance-floor", type=float, default=0.5,
+                   help="each block's variance at least this fraction of its frame's typical variance at its flux "
+                        "(default 0.5; 0: the frames' own variances)")
     p.add_argument("--smooth", type=float, default=1.0,
                    help="Gaussian sigma (px) of the smoothing before the maps and ESF slopes (default 1)")
 

@@ -357,11 +357,11 @@ def _crossing(s, y, target):
 
 
 def despace_study(observed, sweep, *, design=None, truth=None, free_scale=True, margin=12, smooth=1.0,
-                  n_regions=8, region=16, maps=True, bin=4):
+                  n_regions=8, region=16, maps=True, bin=4, variance_floor=VARIANCE_FLOOR):
     """The whole study on files: the observed frame (path) and the sweep folder (``spacing_<um>um.npy`` frames).
 
     Signature: ``despace_study(observed, sweep, *, design=None, truth=None, free_scale=True, margin=12, smooth=1.0,
-    n_regions=8, region=16, maps=True, bin=4) -> dict`` with ``best_spacing_um``, ``uncertainty_um``,
+    n_regions=8, region=16, maps=True, bin=4, variance_floor=0.5) -> dict`` with ``best_spacing_um``, ``uncertainty_um``,
     ``refocus_mm`` (with ``design = (f1_mm, m, back_focus_mm)``; else None), ``method``, ``table`` (one row per spacing: chi2, scale,
     median defocus sigma on edges, median ESF slope along the limb, edge pixels), ``esf_slope_spacing_um`` and, for
     the figures, ``_images`` (not JSON).
@@ -375,7 +375,7 @@ def despace_study(observed, sweep, *, design=None, truth=None, free_scale=True, 
     spacings = [s for s, _ in files]
     frames = [load_frame(p) for _, p in files]
     fit = fit_spacing(obs, obs_se, spacings, [f[0] for f in frames], [f[1] for f in frames],
-                      free_scale=free_scale, margin=margin, bin=bin)
+                      free_scale=free_scale, margin=margin, bin=bin, variance_floor=variance_floor)
     regions = limb_regions(obs, n_regions=n_regions, region=region)
     smooth_obs = gaussian_filter(obs, smooth) if smooth > 0 else obs
     obs_slope = _esf_median(smooth_obs, regions)
