@@ -105,6 +105,7 @@ __all__ = [
     "conic_residual",
     "hit_sphere",
     "sphere_normal",
+    "inverse_axes",
     "hit_ellipsoid",
     "ellipsoid_normal",
     "hit_tube",
@@ -541,21 +542,27 @@ def sphere_normal(x, y, z):
     return normalize3(x, y, z)
 
 
+@numba.njit(cache=True, fastmath=False, inline="always")
+def inverse_axes(a, b, c):
+    """(1/a, 1/b, 1/c) of an ellipsoid's semi-axes, one division per distinct axis (a spheroid's a = b): the
+    scaling that maps it onto the unit sphere."""
+    ia = 1.0 / a
+    ib = ia if b == a else 1.0 / b
+    ic = ia if c == a else 1.0 / c
+    return ia, ib, ic
+
+
 @numba.njit(cache=True, fastmath=False)
 def hit_ellipsoid(ox, oy, oz, dx, dy, dz, a, b, c):
     """Ellipsoid x^2/a^2 + y^2/b^2 + z^2/c^2 = 1: (t1, t2) in the caller's ray parameter."""
-    ia = 1.0 / a        # (one division per distinct semi-axis: a spheroid's a = b)
-    ib = ia if b == a else 1.0 / b
-    ic = ia if c == a else 1.0 / c
+    ia, ib, ic = inverse_axes(a, b, c)
     return hit_sphere(ox * ia, oy * ib, oz * ic, dx * ia, dy * ib, dz * ic, 1.0)
 
 
 @numba.njit(cache=True, fastmath=False)
 def ellipsoid_normal(x, y, z, a, b, c):
     """Outward unit normal of the ellipsoid at (x, y, z): along (x/a^2, y/b^2, z/c^2)."""
-    ia = 1.0 / a
-    ib = ia if b == a else 1.0 / b
-    ic = ia if c == a else 1.0 / c
+    ia, ib, ic = inverse_axes(a, b, c)
     return normalize3(x * ia * ia, y * ib * ib, z * ic * ic)
 
 
@@ -769,9 +776,7 @@ def leaving_sphere_root(ox, oy, oz, dx, dy, dz):
 @numba.njit(cache=True, fastmath=False)
 def leaving_ellipsoid_root(ox, oy, oz, dx, dy, dz, a, b, c):
     """leaving_sphere_root for the ellipsoid x^2/a^2 + y^2/b^2 + z^2/c^2 = 1, in its scaled frame."""
-    ia = 1.0 / a
-    ib = ia if b == a else 1.0 / b
-    ic = ia if c == a else 1.0 / c
+    ia, ib, ic = inverse_axes(a, b, c)
     return leaving_sphere_root(ox * ia, oy * ib, oz * ic, dx * ia, dy * ib, dz * ic)
 
 
