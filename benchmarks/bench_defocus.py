@@ -50,7 +50,7 @@ def run(quick: bool = False, seeds: int = 1) -> dict:
         n = len(found)
         mean = sum(found) / n
         sd = (sum((x - mean) ** 2 for x in found) / (n - 1)) ** 0.5 if n > 1 else float("nan")
-        r["seeds"] = {"found_um": found, "mean_um": mean, "sd_um": sd, "pulls": pulls}
+        r["seeds"] = {"found_um": found, "mean_um": mean, "sd_um": sd, "pulls": pulls, "failed": seeds - n}
     return r
 
 
@@ -71,7 +71,8 @@ def report(r: dict) -> str:
         lines += [f"The same demo with {len(q['found_um'])} pairs of seeds (demo_seed, sweep_seed = 2, 1; 3, 4; 5, 6; "
                   f"...): found {', '.join(f'{x:+.2f}' for x in q['found_um'])} um, mean {q['mean_um']:+.2f} um, "
                   f"SD {q['sd_um']:.2f} um; pulls (found - truth) / uncertainty "
-                  f"{', '.join(f'{x:+.2f}' for x in q['pulls'])}.", ""]
+                  f"{', '.join(f'{x:+.2f}' for x in q['pulls'])}"
+                  + (f"; {q['failed']} run(s) failed and are left out." if q.get("failed") else "."), ""]
     return "\n".join(lines)
 
 
