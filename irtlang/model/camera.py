@@ -199,9 +199,14 @@ def camera_scene(scene: M.Scene, params: dict, span: Span, analyzer: tuple = ())
     return sc2, info
 
 
-#: a GUIDE's defaults: the uniform share mixed into every table (its largest weight factor is 1 / GUIDE_MIX), the
-#: tiles per side of the camera's start lattice, and the pilot's start points per tile and side
-GUIDE_MIX = 0.1
+#: a GUIDE's defaults: the share of every table spread uniformly over the cells next to those where the pilot saw
+#: light leave (so that a cell the pilot missed at an edge of the clear aperture keeps a fair share), the share
+#: spread over all cells (so that no cell is left out: the largest weight factor is 1 / GUIDE_FLOOR), the tiles
+#: per side of the camera's start lattice, and the pilot's start points per tile and side.  Until 2026-12-05 one
+#: uniform share of 0.1 did both; a tenth of a Cassegrain's rays then went where a third of the cone is blocked
+#: (docs/tracer.md, "Camera-side images")
+GUIDE_NEAR = 0.05
+GUIDE_FLOOR = 0.02
 GUIDE_TILES = 4
 GUIDE_PILOT_SUB = 4
 
@@ -306,16 +311,28 @@ def pilot_key(pilot: M.Scene, level: int) -> str:
 
 def guide_tables(passed, g: int, t: int) -> tuple[tuple, dict]:
     """The GUIDE's tables from its pilot's tally `passed` ((t^2, g^2): the flux that left the instrument per tile
-    and cell): per tile the pmf (1 - m) share / total + m / g^2 (m = GUIDE_MIX: a cell the pilot saw nothing
-    leave keeps a share, so the guided estimate stays unbiased wherever light can come from); a tile the pilot
-    saw nothing leave stays uniform.  Also the share of the directions that leave the instrument, uniform and
-    guided (the pilot's estimates, each cell's tally over its tile's largest: the cells wholly clear)."""
+    and cell; a cell is c = a g + r, a the azimuth band and r the band in cos(angle), as the DIRECTIONS strata
+    are numbered): per tile the pmf
+        (1 - GUIDE_NEAR - GUIDE_FLOOR) share / total + GUIDE_NEAR near / n_near + GUIDE_FLOOR / g^2,
+    near the cells where the pilot saw light leave and their neighbours (8 of them: the azimuth wraps around,
+    the radial bands do not), n_near their number.  The floor leaves no cell out, so the guided estimate stays
+    unbiased wherever light can come from; the near share bounds the weight of a cell at the clear aperture's
+    edge that the pilot missed.  A tile the pilot saw nothing leave stays uniform.  Also the share of the
+    directions that leave the instrument, uniform and guided (the pilot's estimates, each cell's tally over its
+    tile's largest: the cells wholly clear)."""
     import numpy as np
 
     passed = np.maximum(np.asarray(passed, float).reshape(t * t, g * g), 0.0)
     tot = passed.sum(axis=1, keepdims=True)
-    pmf = np.where(tot > 0, (1 - GUIDE_MIX) * passed / np.where(tot > 0, tot, 1.0) + GUIDE_MIX / (g * g),
-                   1.0 / (g * g))
+    seen = (passed > 0).reshape(t * t, g, g)       # (tile, azimuth band, radial band)
+    near = seen | np.roll(seen, 1, axis=1) | np.roll(seen, -1, axis=1)
+    grown = near.copy()
+    grown[:, :, 1:] |= near[:, :, :-1]
+    grown[:, :, :-1] |= near[:, :, 1:]
+    near = grown.reshape(t * t, g * g).astype(float)
+    near /= np.maximum(near.sum(axis=1, keepdims=True), 1.0)
+    pmf = np.where(tot > 0, (1 - GUIDE_NEAR - GUIDE_FLOOR) * passed / np.where(tot > 0, tot, 1.0)
+                   + GUIDE_NEAR * near + GUIDE_FLOOR / (g * g), 1.0 / (g * g))
     pmf /= pmf.sum(axis=1, keepdims=True)
     top = passed.max(axis=1, keepdims=True)
     frac = np.where(top > 0, passed / np.where(top > 0, top, 1.0), 0.0)

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from irtlang.cli import main
-from irtlang.model.camera import GUIDE_MIX, guide_tables
+from irtlang.model.camera import GUIDE_FLOOR, GUIDE_NEAR, guide_tables
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _trace_util import small_cassegrain  # noqa: E402
@@ -139,20 +139,43 @@ def test_guided_camera_in_a_group(tmp_path, capsys):
 
 
 def test_guide_tables():
-    """The tables' arithmetic (not physics): each tile's pmf sums to 1, mixes in GUIDE_MIX uniformly (so no cell
-    is left out), follows the pilot's tally elsewhere, and a tile the pilot saw nothing leave stays uniform."""
+    """The tables' arithmetic (not physics): each tile's pmf sums to 1, spreads GUIDE_FLOOR over every cell (so no
+    cell is left out) and GUIDE_NEAR over the cells next to those the pilot saw light leave, follows the pilot's
+    tally elsewhere, and a tile the pilot saw nothing leave stays uniform."""
     g, t = 4, 2
     passed = np.zeros((t * t, g * g))
-    passed[0, :8] = 1.0          # tile 0: half the cells clear
-    passed[1, 3] = 2.0           # tile 1: one cell
+    passed[0, :8] = 1.0          # tile 0: azimuth bands 0 and 1 clear, every radial band
+    passed[1, 5] = 2.0           # tile 1: one cell, azimuth band 1, radial band 1
     pmf, stats = guide_tables(passed, g, t)
     pmf = np.asarray(pmf).reshape(t * t, g * g)
+    main = 1 - GUIDE_NEAR - GUIDE_FLOOR
     assert np.allclose(pmf.sum(axis=1), 1.0)
-    assert np.allclose(pmf[0, :8], (1 - GUIDE_MIX) / 8 + GUIDE_MIX / 16)
-    assert np.allclose(pmf[0, 8:], GUIDE_MIX / 16)
-    assert math.isclose(pmf[1, 3], 1 - GUIDE_MIX + GUIDE_MIX / 16)
+    # tile 0: the near cells are azimuth bands 3, 0, 1, 2 (the azimuth wraps around): all 16 cells
+    assert np.allclose(pmf[0, :8], main / 8 + GUIDE_NEAR / 16 + GUIDE_FLOOR / 16)
+    assert np.allclose(pmf[0, 8:], GUIDE_NEAR / 16 + GUIDE_FLOOR / 16)
+    # tile 1: the 3 x 3 block of azimuth bands 0-2 and radial bands 0-2 about the cell
+    near = np.zeros((g, g), bool)
+    near[0:3, 0:3] = True
+    want = GUIDE_FLOOR / 16 + GUIDE_NEAR * near.ravel() / 9
+    want[5] += main
+    assert np.allclose(pmf[1], want)
     assert np.allclose(pmf[2:], 1.0 / 16)
     assert math.isclose(stats["uniform"], (0.5 + 1 / 16) / 4)
+
+
+def test_guide_near_wraps_in_azimuth_not_in_radius():
+    """A cell in the last azimuth band and the outermost radial band: its near cells are the first and last two
+    azimuth bands' two outermost radial bands, nothing at radial band 0 (plumbing, not physics)."""
+    g, t = 6, 1
+    passed = np.zeros((1, g * g))
+    passed[0, (g - 1) * g + (g - 1)] = 1.0
+    pmf = np.asarray(guide_tables(passed, g, t)[0]).reshape(g, g)
+    base = GUIDE_FLOOR / (g * g)
+    near = pmf > base * (1 + 1e-9)
+    want = np.zeros((g, g), bool)
+    for a in (g - 2, g - 1, 0):
+        want[a, g - 2:] = True
+    assert (near == want).all(), near.astype(int)
 
 
 @pytest.mark.parametrize("clause,message", [
