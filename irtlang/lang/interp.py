@@ -183,6 +183,7 @@ class Interpreter(BindContext):
         k = name.upper()
         if k in CONSTANTS:
             raise error(span, f"{name} is a constant and cannot be assigned")
+        self.failed_vars.discard(k)      # (a TRACE that failed marked its CAMERA_SUN variables)
         for fr in reversed(self.frames):
             if k in fr:
                 fr[k] = (name, value)
@@ -309,6 +310,16 @@ class Interpreter(BindContext):
             self.wavelengths_failed = True
         if key in ("GRID", "SOURCE", "EMITTING", "FLUX"):
             s.source_failed = True
+        if key == "TRACE":
+            # it would have traced (and so used up) the sources defined before it and, camera-side, set the light's
+            # band irradiance CAMERA_SUN[_filter] of its camera: a later TRACE and those variables' uses are quiet
+            s.sources.clear()
+            s.source_failed = False
+            s.traces += 1
+            self.failed_vars.add("CAMERA_SUN")
+            for obj in s.objects.values():
+                for fname, _ in ((obj.detector.filters or ()) if obj.detector is not None else ()):
+                    self.failed_vars.add(f"CAMERA_SUN_{fname}".upper())
         if key in SURFACE_KINDS and s.block is not None:
             s.block.failed = True
             return

@@ -354,6 +354,12 @@ def test_a_syntax_error_stops_at_the_first_one():
     "WAVELENGTHS 450 550 650\nCOATING c REFLECT 0.9 0.8 0.7\nMODEL m LAMBERTIAN 0.1 0.2 0.3\n",
     # a failed SPECTRUM, used by FLUX
     "SPECTRUM sun SOLAR TSI -5 W/m2\nGRID RECT Z 0 -1 1 -1 1 3 3\nSOURCE DIRECTION 0 0 1\nFLUX SPECTRUM sun\n",
+    # a failed TRACE CAMERA: it still used up its light (the next TRACE has one source, not two) and its
+    # CAMERA_SUN variables are not "undefined"; the next TRACE sets them again
+    "UNITS MM\nWAVELENGTHS 550 NM\nSURFACE\n  PLANE Z 0 RECT 1 1\nOBJECT fpa\n  INTERFACE ABSORB\n"
+    "  DETECTOR PIXELS 4 4\nSURFACE\n  PLANE Z 10 RECT 5 5\nOBJECT win\n  INTERFACE TRANSMIT AIR AIR\n"
+    "EMITTING SPHERE 0 0 1e6 1e3 RAYS 1\nFLUX TOTAL 1 W\nTRACE CAMERA fpa AIM win GUIDE 3\nx = CAMERA_SUN * 2\n"
+    "EMITTING SPHERE 0 0 1e6 1e3 RAYS 1\nFLUX TOTAL 1 W\nTRACE CAMERA fpa AIM win\ny = CAMERA_SUN * 2\n",
 ])
 def test_a_failed_definition_does_not_cascade(text):
     diags = diagnose(text)
