@@ -246,3 +246,19 @@ def test_guide_pilot_is_traced_in_the_instruments_frame(tmp_path, capsys):
     (a, ae), (b, be) = ((np.load(tmp_path / "o" / f"image_{k}.npy"), np.load(tmp_path / "o" / f"image_{k}.stderr.npy"))
                         for k in (0, 1))
     _agree(a, ae, b, be, "moved telescope")
+
+
+def test_pilot_target_digits_ignore_round_off_across_the_line_of_sight():
+    """The pilot's target centre, in the camera group's frame, is kept to 9 digits of its distance: round-off
+    about 0 across the line of sight (which changed from hour to hour as the flagship's Earth turned, and made a
+    new pilot in 6 of its 25 frames) rounds to the same value (plumbing, not physics)."""
+    from irtlang.model.camera import _digits
+
+    a = [1.3e-10, -2.2e-11, 2.7496e7]
+    b = [-4.1e-10, 3.0e-11, 2.7496e7 * (1 + 3e-16)]
+    ra = [_digits(x, max(map(abs, a))) for x in a]
+    rb = [_digits(x, max(map(abs, b))) for x in b]
+    assert ra == rb == [0.0, 0.0, 27496000.0]
+    assert math.copysign(1.0, ra[0]) == 1.0           # no -0.0 in a key
+    assert _digits(123.456789012, 1000.0) == 123.45679     # steps of 1e-5: 9 digits of 1000
+    assert _digits(5.0, 0.0) == 5.0
