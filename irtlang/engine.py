@@ -96,6 +96,11 @@ def check_trace_memory(steps, limits) -> list:
 GUIDE_PILOT_SEED = 0x5EED_6D1DE
 
 
+def hero_offset(seed: int, K: int) -> int:
+    """Where a HERO trace's first full block of K lines (or strata) starts, from the trace's seed."""
+    return ((int(seed) * 0x9E3779B97F4A7C15) >> 17) % int(K)
+
+
 class Engine:
     def __init__(self, folder: RunFolder, *, records: bool = True, history: bool = True, progress=None,
                  out=None, runner=None):
@@ -255,7 +260,7 @@ class Engine:
                 # HERO: where the blocks of lines start, from the seed (frames of different seeds put the blocks'
                 # edges, where their correlated errors step, in different places)
                 src = csc.sources[0]
-                off = ((seed * 0x9E3779B97F4A7C15) >> 17) % info["hero"]
+                off = hero_offset(seed, info["hero"])
                 csc = M.replace(csc, sources=(M.replace(src, params=M.frozen_params(dict(src.params,
                                                                                        hero_offset=off))),))
                 info["hero_offset"] = off

@@ -259,12 +259,9 @@ def guide_pilot(csc: M.Scene, params: dict, info: dict, span: Span, target: tupl
         # traced in the camera's group's own frame (the group unplaced, the target brought into it, to 9 digits):
         # an instrument placed anew (the flagship's telescope, every hour) gives the same pilot, bit for bit, so
         # its tables come from the cache
-        # (9 digits of the centre's distance, not of each coordinate: the coordinates across the line of sight are
-        # round-off about 0, and at 9 digits of their own they made a new pilot in 6 of the flagship's 25 frames)
         G = csc.world_transform(M.SceneObject("", (), group=grp))
         d = [float(c) - G.T[k] for k, c in enumerate(centre)]
-        local = [sum(G.R[3 * k + i] * d[k] for k in range(3)) for i in range(3)]
-        centre = tuple(_digits(x, max(abs(y) for y in local)) for x in local)
+        centre = tuple(float(f"{sum(G.R[3 * k + i] * d[k] for k in range(3)):.9g}") for i in range(3))
         radius = float(f"{float(radius):.9g}")
         groups = M.frozen_params({k: (M.replace(v, placement=M.IDENTITY, parent=None) if k == grp else v)
                                   for k, v in groups.items() if _in_group(csc, k, grp)})
@@ -278,20 +275,14 @@ def guide_pilot(csc: M.Scene, params: dict, info: dict, span: Span, target: tupl
     objs[cname] = catcher
     resp = [max(r) for r in p["response"]]
     line = max(range(L), key=lambda k: resp[k])
+    # (hero_offset: the camera's HERO blocks start where its trace's seed says, which the pilot, one line and no
+    # HERO, does not use; kept, it made a new pilot in 7 of the flagship's 25 frames)
     p.update(nx=t, ny=t, sub=GUIDE_PILOT_SUB, spectral=0, directions=g, correlated=False, paired=False, hero=0,
-             response=tuple((1.0,) if k == line else (0.0,) for k in range(L)), guide={"g": g, "t": t, "pilot": True})
+             hero_offset=0, response=tuple((1.0,) if k == line else (0.0,) for k in range(L)),
+             guide={"g": g, "t": t, "pilot": True})
     pilot = M.replace(csc, objects=M.frozen_params(objs), groups=groups,
                       sources=(M.replace(src, params=M.frozen_params(p)),))
     return pilot, {"g": g, "t": t, "catcher": cname, "kept": len(keep)}
-
-
-def _digits(x: float, scale: float, n: int = 9) -> float:
-    """x rounded to n significant digits of `scale` (an absolute step 10^(floor(log10 scale) - n + 1)): the same
-    value for two x that differ by round-off far below the scale, 0 for round-off about 0."""
-    if not scale > 0.0 or not math.isfinite(scale):
-        return float(x)
-    step = 10.0 ** (math.floor(math.log10(scale)) - n + 1)
-    return float(f"{round(x / step) * step:.{n}g}") + 0.0
 
 
 def _content(x):

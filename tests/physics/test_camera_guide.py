@@ -248,17 +248,20 @@ def test_guide_pilot_is_traced_in_the_instruments_frame(tmp_path, capsys):
     _agree(a, ae, b, be, "moved telescope")
 
 
-def test_pilot_target_digits_ignore_round_off_across_the_line_of_sight():
-    """The pilot's target centre, in the camera group's frame, is kept to 9 digits of its distance: round-off
-    about 0 across the line of sight (which changed from hour to hour as the flagship's Earth turned, and made a
-    new pilot in 6 of its 25 frames) rounds to the same value (plumbing, not physics)."""
-    from irtlang.model.camera import _digits
+def test_guide_pilot_is_shared_by_hero_traces_of_other_seeds(tmp_path, capsys):
+    """Two guided HERO traces of one instrument whose seeds start their blocks of lines in different places
+    (hero_offset): the second reuses the first's pilot, which traces one line without HERO (the flagship traced
+    a new pilot in 7 of its 25 frames, one per block offset; plumbing, not physics)."""
+    from irtlang.engine import hero_offset
 
-    a = [1.3e-10, -2.2e-11, 2.7496e7]
-    b = [-4.1e-10, 3.0e-11, 2.7496e7 * (1 + 3e-16)]
-    ra = [_digits(x, max(map(abs, a))) for x in a]
-    rb = [_digits(x, max(map(abs, b))) for x in b]
-    assert ra == rb == [0.0, 0.0, 27496000.0]
-    assert math.copysign(1.0, ra[0]) == 1.0           # no -0.0 in a key
-    assert _digits(123.456789012, 1000.0) == 123.45679     # steps of 1e-5: 9 digits of 1000
-    assert _digits(5.0, 0.0) == 5.0
+    s1 = 8
+    s2 = next(s for s in range(9, 100) if hero_offset(s, 3) != hero_offset(s1, 3))
+    one = (_GROUP_SCENE.format(seed=s1, guide=16).replace("WAVELENGTHS 550 NM", "WAVELENGTHS 500 550 600 NM")
+           .replace("RAYS 64 GUIDE 16", "RAYS 4 SPECTRAL 3 HERO 3 GUIDE 16"))
+    k = one.index("EMITTING SPHERE")
+    tail = one[k:]
+    two = one[:k] + tail.replace("'image.npy'", "'first.npy'") + f"SEED {s2}\n" + tail
+    (tmp_path / "two.inr").write_text(two)
+    _run(tmp_path, "two", script=tmp_path / "two.inr")
+    out = capsys.readouterr().out
+    assert out.count("GUIDE 16 x 16") == 2 and "the pilot of an earlier trace" in out, out
