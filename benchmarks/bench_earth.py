@@ -203,7 +203,7 @@ def image_error_against_time() -> dict:
 
 #: the camera-side images' true error, from two seeds: the default, and the sampling before 2026-12-03
 TRUE_ERROR_SETTINGS = ("hours=1", "sun_rays=10", "save_rays=0", "pupil_directions=1")
-TRUE_ERROR_CONFIGS = (("the default (GUIDE 64, camera_cut 0.05, SPECTRAL 7 HERO 7: hero wavelengths)", ()),
+TRUE_ERROR_CONFIGS = (("the default (GUIDE 32, camera_cut 0.05, SPECTRAL 7 HERO 7: hero wavelengths)", ()),
                       ("SPECTRAL 14 HERO 7 (7 pairs)", ("spectral_samples=14",)),
                       ("SPECTRAL 14, one line per ray (the default before 2026-12-05)",
                        ("spectral_samples=14", "image_hero=1")),
