@@ -800,6 +800,15 @@ class Engine:
                     what = f"filter {filters[0][k]}"
                     bands = ([filters[0][k]], [centre[k]])
                     sel = slice(k, k + 1)
+            if step.params.get("sum"):
+                if getattr(self.result, "camera", None):
+                    raise RuntimeFailure(step.span, f"EXPORT {obj.name} SUM: a camera-side image's lines share their "
+                                         "rays, so their standard errors do not add; its FILTERS images are the bands")
+                if filters is not None:
+                    raise RuntimeFailure(step.span, f"EXPORT {obj.name} SUM: its planes are the bands of its FILTERS, "
+                                         "not lines (EXPORT ... FILTER f writes one)")
+                img, img2, bands = self._line_sum(img, img2)
+                what = "band (its lines summed)"
             if step.params.get("stokes"):
                 self._export_stokes(step, obj, d, sel if filters is not None and step.params.get("filter") is not None
                                     else slice(None), (x0, x1, y0, y1), filters is None, bands, interp)
@@ -807,7 +816,7 @@ class Engine:
                          f"I, Q, U, V, DOLP, AOLP -> {step.params['file']}")
                 return
             self._write_image(step.params["file"], img, "image", extent=(x0, x1, y0, y1), sum2=img2,
-                              per_line=filters is None, name=obj.name, bands=bands, interp=interp,
+                              per_line=filters is None and bands is None, name=obj.name, bands=bands, interp=interp,
                               kind_label="image_diffraction" if step.params.get("diffraction") else "image",
                               log=bool(step.params.get("log")))
             self.out(f"EXPORT {obj.name}: {img.shape[2]}x{img.shape[1]} pixels x {img.shape[0]} {what}, "
@@ -834,9 +843,25 @@ class Engine:
             w = r["flux"][m][mk]
             img[k] = np.histogram2d(vec[mk, ax[1]], vec[mk, ax[0]], bins=(ny, nx), range=((b0, b1), (a0, a1)), weights=w)[0]
             img2[k] = np.histogram2d(vec[mk, ax[1]], vec[mk, ax[0]], bins=(ny, nx), range=((b0, b1), (a0, a1)), weights=w * w)[0]
+        bands, what = None, f"{L} lines"
+        if step.params.get("sum"):
+            img, img2, bands = self._line_sum(img, img2)
+            what = "1 band (its lines summed)"
         self._write_image(step.params["file"], img, "image", extent=(a0 / f, a1 / f, b0 / f, b1 / f), sum2=img2,
-                          name=obj.name, kind_label="window", log=bool(step.params.get("log")))
-        self.out(f"EXPORT {obj.name}: WINDOW grid {nx}x{ny} x {L} lines, {img.sum():.6g} W -> {step.params['file']}")
+                          per_line=bands is None, name=obj.name, bands=bands, kind_label="window",
+                          log=bool(step.params.get("log")))
+        self.out(f"EXPORT {obj.name}: WINDOW grid {nx}x{ny} x {what}, {img.sum():.6g} W -> {step.params['file']}")
+
+    def _line_sum(self, img, img2):
+        """EXPORT ... SUM: a forward trace's image (L, ny, nx) summed over its lines, with the band's label (the
+        lines' range) and its flux-weighted wavelength.  Each source ray carries one line, so a ray's contribution
+        to the sum is its contribution to its line, and the per-ray squared sums add too."""
+        lam = np.asarray(self.result.packed.lines_nm, float)
+        w = img.sum(axis=(1, 2))
+        mean = float((w * lam).sum() / w.sum()) if w.sum() > 0 else float(lam.mean())
+        name = (f"{lam[0]:g} nm" if len(lam) == 1 else f"sum of {len(lam)} lines {lam.min():g}-{lam.max():g} nm")
+        return (img.sum(axis=0, keepdims=True), None if img2 is None else img2.sum(axis=0, keepdims=True),
+                ([name], [mean]))
 
     def do_pst(self, step, interp):
         from .optics.pst_step import run_pst   # point source transmittance (irtlang/optics/pst_step.py)

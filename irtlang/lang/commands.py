@@ -1246,6 +1246,8 @@ def _focus(it, b, st):
 @command("EXPORT", Form((Ref("object", "object"), Path("file")), (
     Clause("DIFFRACTION", (), doc="the detector image convolved with the last PSF's diffraction kernel"),
     Clause("FILTER", (Ref("filter", "spectrum"),), doc="only that filter's image (a DETECTOR with FILTERS)"),
+    Clause("SUM", (), doc="the image summed over its wavelength lines: one plane (a forward trace's detector image "
+           "or WINDOW grid)"),
     Clause("STOKES", (), doc="a polarized trace's I, Q, U, V images and DOLP, AOLP maps (files name_I.ext, ...)"),
     Clause("LOG", (), doc="a .png picture on a logarithmic colour scale (a ghost or a halo beside its image)"))),
          "analysis", "write the object's image: .fits .png .npy .csv by extension")
@@ -1259,6 +1261,12 @@ def _export(it, b, st):
         if "diffraction" in b:
             raise error(b.span, "EXPORT ... STOKES cannot be combined with DIFFRACTION", "export them separately")
         extra["stokes"] = True
+    if "sum" in b:
+        for other, why in (("stokes", "the Stokes images keep their lines"),
+                           ("filter", "a filter's image is already one band")):
+            if other in b:
+                raise error(b.spans.get("kw:SUM", b.span), f"EXPORT ... SUM cannot be combined with {other.upper()}", why)
+        extra["sum"] = True
     if "log" in b:
         if ext != "png":
             raise error(b.span, f"EXPORT ... LOG draws a picture, not a '.{ext}' file",

@@ -78,3 +78,6 @@ def test_defocus_study(tmp_path, capsys):
     assert sd550 < 0.1 and sdc < 0.1
     for tag in ("550_focus", "550_defocus", "clear_focus", "clear_defocus"):
         assert (d / f"psf_{tag}.fits").exists() and (d / f"fpa_{tag}_diffraction.fits").exists()
+        head = (d / f"fpa_{tag}_diffraction.fits").read_bytes()[:2880].decode("ascii")
+        naxis3 = [head[i + 10:i + 30].strip() for i in range(0, 2880, 80) if head[i:i + 8].strip() == "NAXIS3"]
+        assert naxis3 == ["1"]     # EXPORT ... DIFFRACTION SUM: the band's image, not a cube of 15 or 38 lines
