@@ -24,7 +24,7 @@ import numba
 def run(n: int = 4_000_000, repeat: int = 2, quick: bool = False, workers=(1, 2), batch: int = 1 << 16) -> dict:
     if quick:
         n, repeat = 400_000, 1
-    from irtlang.cluster import DaskRunner, connect, default_threads
+    from irtlang.cluster import DaskRunner, close_client, connect, default_threads
     from irtlang.tracer import Progress, run_trace
 
     from .bench_trace import scene_for
@@ -63,7 +63,7 @@ def run(n: int = 4_000_000, repeat: int = 2, quick: bool = False, workers=(1, 2)
                 tin.append(time.perf_counter() - t0)
         finally:
             t0 = time.perf_counter()
-            client.close()
+            close_client(client)
             t_close = time.perf_counter() - t0
         same = (res.ledger.tobytes() == ref.ledger.tobytes()
                 and all(res.images[k][0].tobytes() == ref.images[k][0].tobytes() for k in ref.images))

@@ -250,7 +250,7 @@ def cmd_run(args) -> int:
     scheduler, workers = getattr(args, "scheduler", None), getattr(args, "workers", None)
     if not scheduler and workers is None:
         return _run_script(args)
-    from .cluster import DEFAULT_TIMEOUT, ClusterError, DaskRunner, connect
+    from .cluster import DEFAULT_TIMEOUT, ClusterError, DaskRunner, close_client, connect
     from .core.diagnostics import IrtError
 
     if workers is not None and workers < 1:
@@ -271,7 +271,7 @@ def cmd_run(args) -> int:
         print(f"irt: {e}", file=sys.stderr)
         return EXIT_RUNTIME
     finally:
-        client.close()
+        close_client(client)
 
 
 def _run_script(args, runner=None) -> int:
