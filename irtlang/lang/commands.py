@@ -1265,7 +1265,8 @@ def _export(it, b, st):
         for other, why in (("stokes", "the Stokes images keep their lines"),
                            ("filter", "a filter's image is already one band")):
             if other in b:
-                raise error(b.spans.get("kw:SUM", b.span), f"EXPORT ... SUM cannot be combined with {other.upper()}", why)
+                raise error(b.spans.get("kw:SUM", b.span), f"EXPORT ... SUM cannot be combined with {other.upper()}",
+                            why)
         extra["sum"] = True
     if "log" in b:
         if ext != "png":
