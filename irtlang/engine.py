@@ -375,8 +375,9 @@ class Engine:
         radius = 0.5 * float(np.linalg.norm(centre - (pk.src_Th[0] + pk.src_Tl[0])))
         pilot, pinfo = guide_pilot(csc, cam, info, step.span, (centre, radius))
         g, t = pinfo["g"], pinfo["t"]
-        # the same instrument, window and scene centre give the same tables: the pilot has a seed of its own (not
-        # the trace's), so a cached table is the one the pilot would give again
+        # the same instrument, window and scene centre give the same tally: the pilot has a seed of its own (not
+        # the trace's), so a cached tally is the one the pilot would give again (the tables follow from it and
+        # the trace's NEAR share)
         key = pilot_key(pilot, step.params["level"])
         hit = self._guides.get(key)
         if hit is None:
@@ -386,13 +387,15 @@ class Engine:
             except MissingFeature as e:
                 raise MissingCapability(e.span, e.what, e.capability) from None
             img, _ = res.images[pinfo["catcher"]]
-            pmf, stats = guide_tables(img.sum(axis=0), g, t)
-            hit = self._guides[key] = (pmf, dict(stats, cells=g, tiles=t, pilot_rays=res.n_traced))
+            hit = self._guides[key] = (img.sum(axis=0), res.n_traced)
             how = f"{res.n_traced:,} pilot rays through {pinfo['kept']} objects"
         else:
             how = "the pilot of an earlier trace: the same instrument and window"
-        pmf, stats = hit
-        self.out(f"TRACE CAMERA {info['camera']}: GUIDE {g} x {g} cells of the aim cone in {t} x {t} tiles "
+        near = cam.get("guide_near")
+        pmf, stats = guide_tables(hit[0], g, t, near)
+        stats = dict(stats, cells=g, tiles=t, pilot_rays=hit[1])
+        self.out(f"TRACE CAMERA {info['camera']}: GUIDE {g} x {g} cells of the aim cone in {t} x {t} tiles"
+                 + (f", {near:g} of the rays near the clear cells" if near is not None else "") + " "
                  f"({how}): {stats['uniform']:.1%} of the directions reach the scene, {stats['guided']:.1%} of "
                  f"the guided ones; {time.perf_counter() - t0:.1f} s")
         return (pmf, g, t), stats

@@ -803,6 +803,10 @@ def _guide_cells(x):
     return None if x == 0 or 4 <= x <= 64 else "must be 4 to 64 (0: off)"
 
 
+def _guide_near(x):
+    return None if 0 <= x <= 0.5 else "must be a share from 0 to 0.5"
+
+
 @command("TRACE", Form((), (Clause("UNTIL", (Choice("what", ("ERROR",)), V("error", check=lambda x: None if 0 < x < 1 else "must be between 0 and 100%"),
                                             Choice("on", ("ON",)), Ref("target", "object"))),
                             Clause("CAMERA", (Ref("camera", "object"),),
@@ -826,6 +830,9 @@ def _guide_cells(x):
                             Clause("GUIDE", (V("guide", integer=True, check=_guide_cells),),
                                    doc="draw camera rays' directions from g x g cells of the aim cone, as a pilot "
                                        "trace through the instrument found them leaving it (unbiased; 0: off)"),
+                            Clause("NEAR", (V("guide_near", check=_guide_near),),
+                                   doc="GUIDE's share of the rays spread over the cells next to those the pilot saw "
+                                       "light leave, itself included (default 0.05)"),
                             Clause("WINDOW", (V("i0", integer=True, check=nonneg), V("i1", integer=True, check=positive),
                                               V("j0", integer=True, check=nonneg), V("j1", integer=True, check=positive)),
                                    doc="only pixel columns i0..i1-1 and rows j0..j1-1 (from 0)"),
@@ -900,6 +907,9 @@ def _trace(it, b, st):
                         "into its own image: no SPECTRAL, and a DETECTOR without FILTERS",
                         "CORRELATED is for spectra (SPECTRUM OF the camera); band images: SPECTRAL k without it",
                         notes=[(cam.span, "the camera object")])
+        if "guide_near" in b and "guide" not in b:
+            raise error(b.span_of("guide_near"), "TRACE CAMERA ... NEAR is a share of GUIDE's tables",
+                        "give GUIDE g (4 to 64) before it: TRACE CAMERA fpa AIM secondary GUIDE 64 NEAR 0.15")
         if b.get("guide", 0) > 0 and "directions" in b:
             raise error(b.span_of("guide"), "TRACE CAMERA ... GUIDE cannot be combined with DIRECTIONS",
                         "DIRECTIONS m stratifies the aim cone for spectra; GUIDE g draws band images' rays where they "
@@ -939,6 +949,8 @@ def _trace(it, b, st):
                   "window": win, "spectral": int(b.get("spectral", 0)), "filter": only, "stokes": "stokes" in b,
                   "directions": int(b.get("directions", 0)), "correlated": "correlated" in b,
                   "guide": int(b.get("guide", 0)), "hero": int(b.get("hero", 0))}
+        if "guide_near" in b:
+            camera["guide_near"] = float(b["guide_near"])
         # the light's band irradiance at 1 AU (W/m2) per image of the camera, for I/F; set by the run, 0 here
         for fname in (filters or [""]):
             it.assign("CAMERA_SUN" + (f"_{fname}" if fname else ""), Quantity(0.0, NONE), b.span)

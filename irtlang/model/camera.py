@@ -312,11 +312,12 @@ def pilot_key(pilot: M.Scene, level: int) -> str:
     return hashlib.sha1(repr(_content(what)).encode()).hexdigest()
 
 
-def guide_tables(passed, g: int, t: int) -> tuple[tuple, dict]:
+def guide_tables(passed, g: int, t: int, near_share: float | None = None) -> tuple[tuple, dict]:
     """The GUIDE's tables from its pilot's tally `passed` ((t^2, g^2): the flux that left the instrument per tile
     and cell; a cell is c = a g + r, a the azimuth band and r the band in cos(angle), as the DIRECTIONS strata
     are numbered): per tile the pmf
-        (1 - GUIDE_NEAR - GUIDE_FLOOR) share / total + GUIDE_NEAR near / n_near + GUIDE_FLOOR / g^2,
+        (1 - NEAR - GUIDE_FLOOR) share / total + NEAR near / n_near + GUIDE_FLOOR / g^2,
+    NEAR the `near_share` (TRACE CAMERA ... NEAR; GUIDE_NEAR by default),
     near the cells where the pilot saw light leave and their neighbours (8 of them: the azimuth wraps around,
     the radial bands do not), n_near their number.  The floor leaves no cell out, so the guided estimate stays
     unbiased wherever light can come from; the near share bounds the weight of a cell at the clear aperture's
@@ -334,8 +335,9 @@ def guide_tables(passed, g: int, t: int) -> tuple[tuple, dict]:
     grown[:, :, :-1] |= near[:, :, 1:]
     near = grown.reshape(t * t, g * g).astype(float)
     near /= np.maximum(near.sum(axis=1, keepdims=True), 1.0)
-    pmf = np.where(tot > 0, (1 - GUIDE_NEAR - GUIDE_FLOOR) * passed / np.where(tot > 0, tot, 1.0)
-                   + GUIDE_NEAR * near + GUIDE_FLOOR / (g * g), 1.0 / (g * g))
+    ns = GUIDE_NEAR if near_share is None else float(near_share)
+    pmf = np.where(tot > 0, (1 - ns - GUIDE_FLOOR) * passed / np.where(tot > 0, tot, 1.0)
+                   + ns * near + GUIDE_FLOOR / (g * g), 1.0 / (g * g))
     pmf /= pmf.sum(axis=1, keepdims=True)
     top = passed.max(axis=1, keepdims=True)
     frac = np.where(top > 0, passed / np.where(top > 0, top, 1.0), 0.0)

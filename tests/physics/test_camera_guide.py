@@ -119,18 +119,23 @@ EXPORT fpa 'image.npy'
 """
 
 
-def test_guided_camera_in_a_group(tmp_path, capsys):
+@pytest.mark.parametrize("near", [None, 0.3])
+def test_guided_camera_in_a_group(tmp_path, capsys, near):
     """The telescope in a GROUP (with an absorbing tube that stops some of the rays the secondary sends to the
     primary's edge): the instrument is the group.  Guided against unguided (two seeds) per pixel and in total,
     and the total against the closed form (the tube stops none of the light the primary's annulus collects from
-    the sphere 1 mrad off the axis: the closed form stands).  64 rays per pixel: see the test above."""
+    the sphere 1 mrad off the axis: the closed form stands).  64 rays per pixel: see the test above.  With the
+    default near share and with `NEAR 0.3` (six times as many rays over the cells next to the clear ones): any
+    share keeps the estimate unbiased, since each ray is weighted by the uniform density over the drawn one."""
     imgs = {}
     for guide, seed in ((32, 5), (0, 6)):
         f = tmp_path / f"g{guide}.inr"
-        f.write_text(_GROUP_SCENE.format(seed=seed, guide=guide))
+        f.write_text(_GROUP_SCENE.format(seed=seed, guide=f"{guide} NEAR {near}" if guide and near else guide))
         imgs[guide] = _run(tmp_path, f"g{guide}", script=f)
     out = capsys.readouterr().out
     assert "GUIDE 32 x 32 cells" in out and "through 4 objects" in out, out
+    assert ("of the rays near the clear cells" in out) == (near is not None), out
+    assert near is None or f"{near:g} of the rays near the clear cells" in out, out
     (a, ae), (b, be) = imgs[32], imgs[0]
     _agree(a, ae, b, be, "group: guided against unguided")
     expected = _lambert_flux(0.6)
@@ -138,25 +143,28 @@ def test_guided_camera_in_a_group(tmp_path, capsys):
     assert abs(a.sum() / expected - 1) < 5 * sig / expected + 3e-4, (a.sum(), expected, sig)
 
 
-def test_guide_tables():
+@pytest.mark.parametrize("share", [None, 0.15])
+def test_guide_tables(share):
     """The tables' arithmetic (not physics): each tile's pmf sums to 1, spreads GUIDE_FLOOR over every cell (so no
-    cell is left out) and GUIDE_NEAR over the cells next to those the pilot saw light leave, follows the pilot's
-    tally elsewhere, and a tile the pilot saw nothing leave stays uniform."""
+    cell is left out) and the near share (GUIDE_NEAR, or TRACE CAMERA ... NEAR) over the cells next to those the
+    pilot saw light leave, follows the pilot's tally elsewhere, and a tile the pilot saw nothing leave stays
+    uniform."""
     g, t = 4, 2
     passed = np.zeros((t * t, g * g))
     passed[0, :8] = 1.0          # tile 0: azimuth bands 0 and 1 clear, every radial band
     passed[1, 5] = 2.0           # tile 1: one cell, azimuth band 1, radial band 1
-    pmf, stats = guide_tables(passed, g, t)
+    pmf, stats = guide_tables(passed, g, t, share)
     pmf = np.asarray(pmf).reshape(t * t, g * g)
-    main = 1 - GUIDE_NEAR - GUIDE_FLOOR
+    ns = GUIDE_NEAR if share is None else share
+    main = 1 - ns - GUIDE_FLOOR
     assert np.allclose(pmf.sum(axis=1), 1.0)
     # tile 0: the near cells are azimuth bands 3, 0, 1, 2 (the azimuth wraps around): all 16 cells
-    assert np.allclose(pmf[0, :8], main / 8 + GUIDE_NEAR / 16 + GUIDE_FLOOR / 16)
-    assert np.allclose(pmf[0, 8:], GUIDE_NEAR / 16 + GUIDE_FLOOR / 16)
+    assert np.allclose(pmf[0, :8], main / 8 + ns / 16 + GUIDE_FLOOR / 16)
+    assert np.allclose(pmf[0, 8:], ns / 16 + GUIDE_FLOOR / 16)
     # tile 1: the 3 x 3 block of azimuth bands 0-2 and radial bands 0-2 about the cell
     near = np.zeros((g, g), bool)
     near[0:3, 0:3] = True
-    want = GUIDE_FLOOR / 16 + GUIDE_NEAR * near.ravel() / 9
+    want = GUIDE_FLOOR / 16 + ns * near.ravel() / 9
     want[5] += main
     assert np.allclose(pmf[1], want)
     assert np.allclose(pmf[2:], 1.0 / 16)
@@ -181,6 +189,8 @@ def test_guide_near_wraps_in_azimuth_not_in_radius():
 @pytest.mark.parametrize("clause,message", [
     ("GUIDE 3", "must be 4 to 64"),
     ("GUIDE 16 DIRECTIONS 4", "GUIDE cannot be combined with DIRECTIONS"),
+    ("GUIDE 16 NEAR 0.7", "must be a share from 0 to 0.5"),
+    ("NEAR 0.1", "NEAR is a share of GUIDE's tables"),
 ])
 def test_guide_errors(tmp_path, capsys, clause, message):
     f = tmp_path / "bad.inr"
