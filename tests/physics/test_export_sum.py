@@ -90,3 +90,18 @@ def test_sum_refuses_filter_and_camera_images(tmp_path, capsys):
     text = text.out + text.err
     assert code == 1 and "a camera-side image's lines share their rays" in text, text
     assert "Traceback" not in text and not (tmp_path / "cam" / "c.fits").exists()
+
+
+def test_sum_of_a_window_grid(tmp_path, capsys):
+    """An object without a DETECTOR exports the WINDOW / PIXELS grid of the rays that ended on it: SUM adds its
+    lines the same way (arithmetic on the same run's cube, a regression guard)."""
+    text = (SCENE.replace("  DETECTOR PIXELS 32 32\n", "").replace("TRACE\n", "TRACE\nWINDOW X -4 4 Y -4 4\nPIXELS 8 8\n")
+            .format(seed=8, extra=""))
+    f = tmp_path / "w.inr"
+    f.write_text(text)
+    assert main(["run", str(f), "--out", str(tmp_path / "o")]) == 0, capsys.readouterr().err
+    out = capsys.readouterr().out
+    cube, s = np.load(tmp_path / "o" / "cube.npy"), np.load(tmp_path / "o" / "sum.npy")
+    assert cube.shape == (3, 8, 8) and s.shape == (1, 8, 8)
+    assert np.allclose(s[0], cube.sum(axis=0), rtol=1e-13, atol=0) and cube.sum() > 0
+    assert "WINDOW grid 8x8 x 1 band (its lines summed)" in out
